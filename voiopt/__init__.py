@@ -1,0 +1,29 @@
+"""voiopt: certified path planning and upload scheduling for value-of-information collection.
+
+    import voiopt
+    inst = voiopt.load("instances/case-study.json")
+    metrics = voiopt.evaluate(inst, plan)
+"""
+
+from voiopt.errors import InstanceError, OptionError, PlanError, VoioptError
+from voiopt.generate import case_study, generate, generate_set
+from voiopt.instance import Channel, Instance, Sensor, load, save
+from voiopt.result import Plan, Result, load_plan, load_result
+from voiopt.simulate import OBJECTIVES, Trajectory, simulate
+from voiopt.solvers import METHODS, solve
+
+__version__ = "0.1.0"
+
+
+def evaluate(instance: Instance, plan) -> dict[str, float]:
+    """The four metrics of a plan (a Plan, or a dict holding a plan or a whole result)."""
+    if not isinstance(plan, Plan):
+        plan = Plan.from_dict(plan)
+    return simulate(instance, plan).metrics
+
+
+__all__ = [
+    "Channel", "Instance", "InstanceError", "METHODS", "OBJECTIVES", "OptionError", "Plan",
+    "PlanError", "Result", "Sensor", "Trajectory", "VoioptError", "case_study", "evaluate",
+    "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
+]

@@ -1,0 +1,3 @@
+from voiopt.cli import run
+
+run()

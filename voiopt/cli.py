@@ -1,0 +1,209 @@
+"""The ``voiopt`` command. Thin: it parses arguments and calls the API; errors are one line, exit 2."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+import voiopt
+from voiopt import instance as instance_mod
+from voiopt.errors import OptionError, VoioptError
+from voiopt.generate import generate as generate_one
+from voiopt.generate import generate_set, write_set
+from voiopt.simulate import OBJECTIVES
+
+out = Console(highlight=False, soft_wrap=True)
+err = Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2 (argparse prints usage too)
+        err.print(f"{self.prog}: error: {message}", markup=False)
+        raise SystemExit(2)
+
+
+def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
+    table = Table(title=title or None)
+    table.add_column("plan")
+    for m in OBJECTIVES:
+        table.add_column(m, justify="right")
+    for name, metrics in rows.items():
+        table.add_row(name, *(f"{metrics[m]:.6g}" for m in OBJECTIVES))
+    return table
+
+
+# ------------------------------------------------------------------------------- commands
+
+
+def cmd_validate(args) -> int:
+    bad = 0
+    for path in args.instances:
+        try:
+            inst = instance_mod.load(path)
+        except VoioptError as e:
+            lines = [f"{path}: {line}" for line in getattr(e, "all_errors", [])] or [str(e)]
+            for line in lines:
+                err.print(line, markup=False)
+            bad += 1
+            continue
+        from voiopt import lattice
+
+        lat = lattice.build(inst)
+        never = [i for i in range(inst.n_sensors) if not lat.in_range[i].any()]
+        note = ""
+        if never:
+            note = f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
+        out.print(f"{path}: ok{note}" if len(args.instances) > 1 else f"ok{note}", markup=False)
+    return 2 if bad else 0
+
+
+def cmd_evaluate(args) -> int:
+    inst = instance_mod.load(args.instance)
+    plan = voiopt.load_plan(args.plan)
+    metrics = voiopt.evaluate(inst, plan)
+    if args.json:
+        print(json.dumps({"instance": inst.name, "metrics": metrics}, indent=2))
+    else:
+        out.print(_metrics_table({Path(args.plan).name: metrics}, title=inst.name))
+    return 0
+
+
+def cmd_generate(args) -> int:
+    kwargs = dict(
+        n_sensors=args.sensors, horizon=args.horizon, width=args.width, height=args.height,
+        step=args.step, rho=tuple(args.rho), power_w=args.power, initial_aoi=tuple(args.initial_aoi),
+    )
+    if args.out is None:
+        if args.count != 1:
+            raise OptionError("--count: more than one network needs --out DIR")
+        inst = generate_one(seed=args.seed, name=args.name, **kwargs)
+        print(json.dumps(inst.to_dict(), indent=2))
+        return 0
+    insts = generate_set(args.count, seed=args.seed, name=args.name, **kwargs)
+    paths = write_set(insts, args.out)
+    out.print(f"wrote {len(paths)} instance(s) to {args.out}", markup=False)
+    return 0
+
+
+def _solve_options(args) -> dict:
+    opts = {}
+    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit"):
+        v = getattr(args, key, None)
+        if v is not None:
+            opts[key] = v
+    if args.warm_start is not None:
+        opts["warm_start"] = voiopt.load_plan(args.warm_start)
+    if not args.quiet and not args.json:
+        opts["progress"] = True
+    return opts
+
+
+def cmd_solve(args) -> int:
+    if args.time_limit is not None and not args.time_limit > 0:
+        raise OptionError(f"--time-limit: must be > 0 seconds, got {args.time_limit:g}")
+    if args.gap is not None and not args.gap >= 0:
+        raise OptionError(f"--gap: must be >= 0, got {args.gap:g}")
+    inst = instance_mod.load(args.instance)
+    result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args))
+    if args.output:
+        result.save(args.output)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+    elif not args.quiet:
+        out.print(result.summary(), markup=False)
+        out.print(_metrics_table({args.method: result.metrics}) if result.metrics else "no plan")
+        if args.output:
+            out.print(f"result written to {args.output}", markup=False)
+    return 0 if result.status != "error" else 1
+
+
+def cmd_demo(args) -> int:
+    from voiopt.demo import run_demo
+
+    return run_demo(args.instance, out)
+
+
+# ---------------------------------------------------------------------------------- parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="voiopt", description="Certified path planning and scheduling for VoI data collection.")
+    p.add_argument("--version", action="version", version=f"voiopt {voiopt.__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    s = sub.add_parser("validate", help="check instance files; print ok or the errors")
+    s.add_argument("instances", nargs="+", metavar="INSTANCE")
+    s.set_defaults(func=cmd_validate)
+
+    s = sub.add_parser("evaluate", help="simulate a plan and print its four metrics")
+    s.add_argument("instance", metavar="INSTANCE")
+    s.add_argument("plan", metavar="PLAN", help="a plan object or a whole result JSON")
+    s.add_argument("--json", action="store_true", help="print a JSON object with key 'metrics'")
+    s.set_defaults(func=cmd_evaluate)
+
+    s = sub.add_parser("generate", help="random networks with the paper's distributions")
+    s.add_argument("--sensors", type=int, default=4, help="N (default 4)")
+    s.add_argument("--horizon", type=int, default=30, help="T (default 30)")
+    s.add_argument("--width", type=float, default=5.0)
+    s.add_argument("--height", type=float, default=5.0)
+    s.add_argument("--step", type=float, default=1.0)
+    s.add_argument("--rho", type=float, nargs=2, default=[0.0, 1.0], metavar=("LO", "HI"), help="rho ~ U(LO, HI)")
+    s.add_argument("--power", type=float, default=1.0, help="P in watts (default 1)")
+    s.add_argument("--initial-aoi", type=int, nargs=2, default=[1, 1], metavar=("LO", "HI"))
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--count", type=int, default=1)
+    s.add_argument("--name", default=None, help="name prefix of the instances")
+    s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
+    s.set_defaults(func=cmd_generate)
+
+    s = sub.add_parser("solve", help="solve an instance and write the result JSON")
+    s.add_argument("instance", metavar="INSTANCE")
+    s.add_argument("--method", default="milp", help="solution method (see 'voiopt methods')")
+    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
+    s.add_argument("--time-limit", type=float, default=None, metavar="S")
+    s.add_argument("--gap", type=float, default=None, metavar="G", help="relative MIP gap (default 0: exact)")
+    s.add_argument("--threads", type=int, default=None, metavar="K")
+    s.add_argument("--episodes", type=int, default=None, metavar="N", help="Q-learning episodes R_max")
+    s.add_argument("--seed", type=int, default=None, metavar="S")
+    s.add_argument("--memory-limit", type=float, default=None, metavar="GB")
+    s.add_argument("--warm-start", default=None, metavar="PLAN", help="a plan or result JSON to start from")
+    s.add_argument("-o", "--output", default=None, metavar="RESULT")
+    s.add_argument("--json", action="store_true", help="print the result JSON to stdout")
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_solve)
+
+    s = sub.add_parser("methods", help="list the solution methods")
+    s.set_defaults(func=lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])
+
+    s = sub.add_parser("demo", help="run the main job on the shipped case study")
+    s.add_argument("instance", nargs="?", default=None, metavar="INSTANCE")
+    s.set_defaults(func=cmd_demo)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except VoioptError as e:
+        err.print(f"voiopt: error: {e}", markup=False)
+        return 2
+    except KeyboardInterrupt:
+        err.print("voiopt: interrupted", markup=False)
+        return 130
+
+
+
+def run() -> None:
+    """Console-script entry point."""
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    run()

@@ -1,0 +1,26 @@
+"""The one exception family users see: a one-line message naming the field and the value."""
+
+
+class VoioptError(ValueError):
+    """Bad input: an instance, a plan, an option. The CLI prints it as one line, exit 2."""
+
+
+class InstanceError(VoioptError):
+    """An instance file or dict that breaks a rule of MODEL.md section 1."""
+
+
+class PlanError(VoioptError):
+    """A plan that breaks a rule of MODEL.md section 3."""
+
+
+class OptionError(VoioptError):
+    """An unknown method or objective, or a bad solver option."""
+
+
+class MissingExtraError(VoioptError):
+    """An optional dependency is not installed; the message names the pip command."""
+
+    def __init__(self, module: str, extra: str):
+        super().__init__(
+            f"this needs the optional package '{module}': pip install 'voiopt[{extra}]'"
+        )

@@ -1,0 +1,118 @@
+"""Random networks with the paper's distributions (MODEL.md section 8), and the case study."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from voiopt import instance as instance_mod
+from voiopt.errors import OptionError
+from voiopt.instance import Channel, Instance, Sensor
+
+
+def generate(
+    n_sensors: int = 4,
+    horizon: int = 30,
+    *,
+    width: float = 5.0,
+    height: float = 5.0,
+    step: float = 1.0,
+    rho: tuple[float, float] = (0.0, 1.0),
+    power_w: float = 1.0,
+    initial_aoi: tuple[int, int] = (1, 1),
+    channel: Channel | None = None,
+    seed: int | np.random.SeedSequence = 0,
+    name: str | None = None,
+) -> Instance:
+    """One random network: sensors uniform in the area, start uniform on the lattice,
+    rho ~ U(rho[0], rho[1]) (redrawn in the rare case it hits 0 or 1), initial AoI uniform
+    on the integers initial_aoi[0]..initial_aoi[1]. Same seed, same network."""
+    _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi)
+    rng = np.random.default_rng(seed)
+    channel = channel or Channel()
+    nx = int(np.floor(width / step + instance_mod.LATTICE_TOL)) + 1
+    ny = int(np.floor(height / step + instance_mod.LATTICE_TOL)) + 1
+    sensors = []
+    for _ in range(n_sensors):
+        x, y = rng.uniform(0, width), rng.uniform(0, height)
+        r = rng.uniform(rho[0], rho[1])
+        while not 0 < r < 1:
+            r = rng.uniform(rho[0], rho[1])
+        a = int(rng.integers(initial_aoi[0], initial_aoi[1] + 1))
+        sensors.append(Sensor((round(float(x), 6), round(float(y), 6)), float(r), float(power_w), a, None))
+    start = (float(rng.integers(nx)) * step, float(rng.integers(ny)) * step)
+    if name is None:
+        s = seed.entropy if isinstance(seed, np.random.SeedSequence) else seed
+        name = f"n{n_sensors}-t{horizon}-seed{s}"
+    inst = Instance(name, float(width), float(height), int(horizon), start, tuple(sensors), float(step), channel)
+    return instance_mod.from_dict(inst.to_dict())  # validated like any file
+
+
+def generate_set(count: int, seed: int = 0, **kwargs) -> list[Instance]:
+    """``count`` independent networks; network k depends only on (seed, k)."""
+    if count < 1:
+        raise OptionError(f"count: must be >= 1, got {count}")
+    base = kwargs.pop("name", None)
+    children = np.random.SeedSequence(seed).spawn(count)
+    out = []
+    for k, child in enumerate(children):
+        n = kwargs.get("n_sensors", 4)
+        t = kwargs.get("horizon", 30)
+        name = f"{base or f'n{n}-t{t}-seed{seed}'}-{k:03d}"
+        out.append(generate(seed=child, name=name, **kwargs))
+    return out
+
+
+def write_set(instances: list[Instance], out_dir: str | os.PathLike) -> list[Path]:
+    out = Path(out_dir)
+    paths = []
+    for inst in instances:
+        p = out / f"{inst.name}.json"
+        instance_mod.save(inst, p)
+        paths.append(p)
+    return paths
+
+
+def _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi) -> None:
+    if not (isinstance(n_sensors, int) and n_sensors >= 1):
+        raise OptionError(f"sensors: must be an integer >= 1, got {n_sensors!r}")
+    if not (isinstance(horizon, int) and horizon >= 1):
+        raise OptionError(f"horizon: must be an integer >= 1, got {horizon!r}")
+    for key, v in (("width", width), ("height", height), ("step", step), ("power", power_w)):
+        if not (np.isfinite(v) and v > 0):
+            raise OptionError(f"{key}: must be > 0, got {v!r}")
+    lo, hi = rho
+    if not (0 <= lo <= hi <= 1) or lo == hi in (0, 1):
+        raise OptionError(f"rho: must be a range 0 <= lo <= hi <= 1 with points inside (0, 1), got {list(rho)}")
+    a0, a1 = initial_aoi
+    if not (isinstance(a0, int) and isinstance(a1, int) and 1 <= a0 <= a1):
+        raise OptionError(f"initial-aoi: must be a range 1 <= lo <= hi of integers, got {list(initial_aoi)}")
+
+
+# The paper's Fig. 3/4 case study: N = 3, rho = [0.7, 0.6, 0.5], A(0) = [2, 4, 4], P = 1 W,
+# T = 10. The paper does not give positions; these are illustrative choices of ours.
+CASE_STUDY = {
+    "name": "case-study",
+    "area": {"width": 5, "height": 5},
+    "step": 1.0,
+    "horizon": 10,
+    "start": [0, 2],
+    "channel": {"g0_db": -50.0, "bandwidth_hz": 2e6, "noise_dbm_per_hz": -110.0, "d_th": 1.0},
+    "sensors": [
+        {"position": [1.4, 3.6], "rho": 0.7, "power_w": 1.0, "initial_aoi": 2, "initial_distance": 1.0},
+        {"position": [3.7, 4.4], "rho": 0.6, "power_w": 1.0, "initial_aoi": 4, "initial_distance": 1.0},
+        {"position": [4.3, 1.3], "rho": 0.5, "power_w": 1.0, "initial_aoi": 4, "initial_distance": 1.0},
+    ],
+}
+
+# An illustrative hand-made plan for the case study (legal, not optimal).
+CASE_STUDY_PLAN = {
+    "positions": [[0, 2], [1, 2], [1, 3], [2, 3], [2, 4], [3, 4], [4, 4], [4, 3], [4, 2], [4, 1]],
+    "schedule": [None, None, 0, 0, 0, 1, 1, None, 2, 2],
+}
+
+
+def case_study() -> Instance:
+    return instance_mod.from_dict(CASE_STUDY)

@@ -1,0 +1,140 @@
+"""The dynamics of MODEL.md section 3: a plan becomes per-slot AoI, distance, VoI and metrics.
+
+This module is the single source of every number voiopt reports. Solvers return plans;
+only ``simulate`` turns them into values.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from voiopt import lattice as lattice_mod
+from voiopt import physics
+from voiopt.errors import OptionError, PlanError
+from voiopt.instance import Instance
+
+if TYPE_CHECKING:
+    from voiopt.result import Plan
+
+# name -> sense ("max" or "min"), MODEL.md section 5
+OBJECTIVES: dict[str, str] = {
+    "min-voi": "max",
+    "mean-min-voi": "max",
+    "max-aoi": "min",
+    "mean-max-aoi": "min",
+}
+
+
+def check_objective(objective: str) -> str:
+    if objective not in OBJECTIVES:
+        raise OptionError(f"objective: unknown objective {objective!r} (choose from {', '.join(OBJECTIVES)})")
+    return objective
+
+
+def sense(objective: str) -> str:
+    return OBJECTIVES[check_objective(objective)]
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Per-slot state, index t = 0..T (row 0 is the initial state, rows 1..T are scored)."""
+
+    positions: np.ndarray  # (T, ) lattice point index of p(t), t = 0..T-1
+    schedule: np.ndarray  # (T, ) sensor index or -1
+    aoi: np.ndarray  # (T+1, N) A_i(t)
+    distance: np.ndarray  # (T+1, N) q_i(t)
+    voi: np.ndarray  # (T+1, N) V_i(t), bit/s
+    metrics: dict[str, float]
+
+
+def check_plan(instance: Instance, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a plan against MODEL.md section 3; return (point indices, schedule with -1)."""
+    lat = lattice_mod.build(instance)
+    T, N = instance.horizon, instance.n_sensors
+    if len(plan.positions) != T:
+        raise PlanError(f"positions: must have horizon = {T} entries, got {len(plan.positions)}")
+    if len(plan.schedule) != T:
+        raise PlanError(f"schedule: must have horizon = {T} entries, got {len(plan.schedule)}")
+    idx = np.empty(T, dtype=np.int64)
+    for t, (x, y) in enumerate(plan.positions):
+        p = lat.index(x, y)
+        if p is None:
+            inside = -1e-9 <= x <= instance.width + 1e-9 and -1e-9 <= y <= instance.height + 1e-9
+            why = "is not a lattice point" if inside else "is outside the area"
+            raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] {why} (step {instance.step:g}, area {instance.width:g} x {instance.height:g})")
+        idx[t] = p
+    if idx[0] != lat.start:
+        x, y = plan.positions[0]
+        raise PlanError(f"positions[0]: must equal start {list(instance.start)}, got [{x:g}, {y:g}]")
+    for t in range(1, T):
+        if idx[t] not in lat.neighbors[idx[t - 1]]:
+            (x0, y0), (x1, y1) = plan.positions[t - 1], plan.positions[t]
+            raise PlanError(
+                f"positions[{t}]: [{x1:g}, {y1:g}] is not one N/S/E/W step (or stay) from positions[{t-1}] [{x0:g}, {y0:g}]"
+            )
+    sched = np.full(T, -1, dtype=np.int64)
+    for t, u in enumerate(plan.schedule):
+        if u is None:
+            continue
+        if isinstance(u, bool) or not isinstance(u, (int, np.integer)):
+            raise PlanError(f"schedule[{t}]: must be a sensor index or null, got {u!r} (one sensor per slot)")
+        if not 0 <= u < N:
+            raise PlanError(f"schedule[{t}]: unknown sensor index {u} (the instance has {N} sensors)")
+        if not lat.in_range[u, idx[t]]:
+            raise PlanError(
+                f"schedule[{t}]: sensor {u} is out of range at positions[{t}] "
+                f"(distance {lat.distance[u, idx[t]]:.4g} > d_th {instance.channel.d_th:g})"
+            )
+        sched[t] = u
+    return idx, sched
+
+
+def simulate(instance: Instance, plan: Plan) -> Trajectory:
+    """Run a plan through the dynamics; reject illegal plans with a PlanError."""
+    idx, sched = check_plan(instance, plan)
+    return simulate_indices(instance, idx, sched)
+
+
+def simulate_indices(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> Trajectory:
+    """The dynamics for an already-checked plan given as point indices and schedule (-1 = none)."""
+    lat = lattice_mod.build(instance)
+    T, N = instance.horizon, instance.n_sensors
+    aoi = np.empty((T + 1, N), dtype=np.int64)
+    dist = np.empty((T + 1, N))
+    aoi[0] = [s.initial_aoi for s in instance.sensors]
+    dist[0] = [instance.initial_distance(i) for i in range(N)]
+    for t in range(T):
+        aoi[t + 1] = aoi[t] + 1
+        dist[t + 1] = dist[t]
+        u = sched[t]
+        if u >= 0:
+            aoi[t + 1, u] = 1
+            dist[t + 1, u] = lat.distance[u, idx[t]]
+    rho = np.array([s.rho for s in instance.sensors])
+    power = np.array([s.power_w for s in instance.sensors])
+    v = physics.voi(aoi, dist, rho, power, instance.channel)
+    return Trajectory(idx, sched, aoi, dist, v, metrics_of(aoi, v))
+
+
+def metrics_of(aoi: np.ndarray, v: np.ndarray) -> dict[str, float]:
+    """The four objectives of MODEL.md section 5 over slots t = 1..T."""
+    a, vv = aoi[1:], v[1:]
+    return {
+        "min-voi": float(vv.min()),
+        "mean-min-voi": float(vv.min(axis=1).mean()),
+        "max-aoi": int(a.max()),
+        "mean-max-aoi": float(a.max(axis=1).mean()),
+    }
+
+
+def evaluate(instance: Instance, plan: Plan) -> dict[str, float]:
+    """The four metrics of a plan (raises PlanError if the plan is illegal)."""
+    return simulate(instance, plan).metrics
+
+
+def better(objective: str, a: float, b: float) -> bool:
+    """Is value a strictly better than value b for this objective?"""
+    return a > b if sense(objective) == "max" else a < b
