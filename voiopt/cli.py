@@ -122,6 +122,15 @@ def cmd_solve(args) -> int:
     return 0 if result.status != "error" else 1
 
 
+def cmd_export(args) -> int:
+    from voiopt.models.milp import export
+
+    inst = instance_mod.load(args.instance)
+    export(inst, args.objective, args.model)
+    out.print(f"wrote {args.model}", markup=False)
+    return 0
+
+
 def cmd_demo(args) -> int:
     from voiopt.demo import run_demo
 
@@ -176,6 +185,12 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print the result JSON to stdout")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_solve)
+
+    s = sub.add_parser("export", help="write the MILP of an instance as MPS or LP (by extension)")
+    s.add_argument("instance", metavar="INSTANCE")
+    s.add_argument("model", metavar="MODEL", help="output file, .mps or .lp")
+    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
+    s.set_defaults(func=cmd_export)
 
     s = sub.add_parser("methods", help="list the solution methods")
     s.set_defaults(func=lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])

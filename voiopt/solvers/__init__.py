@@ -1,12 +1,14 @@
 """The solver registry: method name -> ``solve(instance, objective, **options) -> Result``.
 
 Modules are imported only when their method is used, so optional extras and numba
-compilation cost nothing until needed.
+compilation cost nothing until needed. Options a method does not take are rejected with a
+one-line error naming the option.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 from typing import Any
 
 from voiopt.errors import OptionError
@@ -14,19 +16,32 @@ from voiopt.instance import Instance
 from voiopt.result import Result
 from voiopt.simulate import check_objective
 
-# method name -> (module, function)
-METHODS: dict[str, tuple[str, str]] = {}
+# method name -> (module, function); each function is
+#   solve(instance, objective, *, progress=False, <its own keyword options>) -> Result
+METHODS: dict[str, tuple[str, str]] = {
+    "milp": ("voiopt.solvers.milp", "solve"),
+    "dp": ("voiopt.solvers.dp", "solve"),
+    "qlearning": ("voiopt.solvers.qlearning", "solve"),
+    "aoi-qlearning": ("voiopt.solvers.qlearning", "solve_aoi"),
+    "shortest-path": ("voiopt.solvers.baselines", "shortest_path"),
+    "greedy": ("voiopt.solvers.baselines", "greedy"),
+}
 
 
-def register(name: str, module: str, function: str = "solve") -> None:
-    METHODS[name] = (module, function)
+def solver_function(method: str):
+    if method not in METHODS:
+        raise OptionError(f"method: unknown method {method!r} (choose from {', '.join(METHODS)})")
+    module, function = METHODS[method]
+    return getattr(importlib.import_module(module), function)
 
 
 def solve(instance: Instance, method: str = "milp", objective: str = "mean-min-voi", **options: Any) -> Result:
     """Solve ``instance`` with ``method`` for ``objective``; every value in the Result is simulated."""
     check_objective(objective)
-    if method not in METHODS:
-        raise OptionError(f"method: unknown method {method!r} (choose from {', '.join(METHODS) or 'none'})")
-    module, function = METHODS[method]
-    fn = getattr(importlib.import_module(module), function)
+    fn = solver_function(method)
+    params = inspect.signature(fn).parameters
+    if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        for key in options:
+            if key not in params:
+                raise OptionError(f"--{key.replace('_', '-')}: not an option of method {method!r}")
     return fn(instance, objective, **options)
