@@ -1,0 +1,218 @@
+"""The paper's comparison schemes: the shortest closed walk, and a one-step greedy.
+
+``greedy`` is also the cheap incumbent the exact solvers warm-start from. Both return a plan
+that ``Result.from_plan`` simulates; neither reports a value of its own.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+
+import networkx as nx
+import numpy as np
+
+from voiopt import lattice as lattice_mod
+from voiopt import physics
+from voiopt.errors import OptionError
+from voiopt.instance import Instance
+from voiopt.result import Plan, Result
+from voiopt.simulate import check_objective
+
+EXACT_TOUR_MAX_SENSORS = 7  # exact order enumeration up to N! = 5040 orders
+
+
+def _is_aoi(objective: str) -> bool:
+    return "aoi" in check_objective(objective)
+
+
+def _steps_to_sensor(instance: Instance) -> np.ndarray:
+    """(N, n) fewest moves from each lattice point into range of each sensor (inf if never)."""
+    lat = lattice_mod.build(instance)
+    out = np.full((instance.n_sensors, lat.n_points), np.inf)
+    for i in range(instance.n_sensors):
+        for q in np.flatnonzero(lat.in_range[i]):
+            out[i] = np.minimum(out[i], lat.steps_from(q))
+    return out
+
+
+class _Slot:
+    """The per-slot arithmetic of greedy: next AoI/distance and a comparable score."""
+
+    def __init__(self, instance: Instance, aoi_objective: bool):
+        self.inst = instance
+        self.lat = lattice_mod.build(instance)
+        self.aoi_objective = aoi_objective
+        self.rho = np.array([s.rho for s in instance.sensors])
+        self.power = np.array([s.power_w for s in instance.sensors])
+
+    def uploads(self, p: int) -> list[int]:
+        """-1 (none) then the sensors in range of point p, ascending."""
+        return [-1, *np.flatnonzero(self.lat.in_range[:, p]).tolist()]
+
+    def step(self, aoi: np.ndarray, dist: np.ndarray, p: int) -> list[tuple[int, np.ndarray, np.ndarray, tuple]]:
+        """For each upload u at p: (u, A(t+1), q(t+1), score); higher score is better.
+
+        Score: leximin of the VoI vector (lowest VoI first), or for AoI objectives the leximax
+        of the ages negated, so ties on the bottleneck are broken by the next-worst sensor."""
+        us = self.uploads(p)
+        A = np.repeat((aoi + 1)[None, :], len(us), axis=0)
+        Q = np.repeat(dist[None, :], len(us), axis=0)
+        for r, u in enumerate(us):
+            if u >= 0:
+                A[r, u] = 1
+                Q[r, u] = self.lat.distance[u, p]
+        if self.aoi_objective:
+            scores = [tuple(-np.sort(a)[::-1]) for a in A]
+        else:
+            v = physics.voi(A, Q, self.rho, self.power, self.inst.channel)
+            scores = [tuple(np.sort(row)) for row in np.atleast_2d(v)]
+        return [(u, A[r], Q[r], scores[r]) for r, u in enumerate(us)]
+
+    def bottleneck(self, aoi: np.ndarray, dist: np.ndarray, reachable: np.ndarray) -> int:
+        """The worst sensor (lowest VoI, or largest AoI) among those that can ever be served."""
+        if self.aoi_objective:
+            badness = aoi.astype(float)
+        else:
+            badness = -np.asarray(physics.voi(aoi, dist, self.rho, self.power, self.inst.channel))
+        badness = np.where(reachable, badness, -np.inf)
+        return int(np.argmax(badness))
+
+
+def greedy(instance: Instance, objective: str, *, progress: bool = False) -> Result:
+    """Each slot, the upload and move that make the next slot best (min VoI, or max AoI).
+
+    Ties are broken in turn by: the best next-but-one slot with the best upload at the new
+    position (one-step lookahead); the whole next VoI vector, lowest first (AoI: the ages,
+    largest first); fewest moves into range of the then worst sensor; the lookahead's whole
+    vector; finally the order none < sensor 0 < ... and stay < N < S < E < W. Deterministic."""
+    t0 = time.perf_counter()
+    aoi_objective = _is_aoi(objective)
+    slot = _Slot(instance, aoi_objective)
+    lat = slot.lat
+    to_sensor = _steps_to_sensor(instance)
+    reachable = np.isfinite(to_sensor).any(axis=1)
+    aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
+    dist = np.array([instance.initial_distance(i) for i in range(instance.n_sensors)])
+    p = lat.start
+    idx, sched = [], []
+    for _ in range(instance.horizon):
+        best_key, best = None, None
+        for u, a1, q1, score1 in slot.step(aoi, dist, p):
+            worst = slot.bottleneck(a1, q1, reachable)
+            for m in range(5):
+                p1 = int(lat.neighbors[p, m])
+                if p1 < 0:
+                    continue
+                lookahead = max(s for *_, s in slot.step(a1, q1, p1))
+                steps = to_sensor[worst, p1] if reachable[worst] else 0.0
+                key = (score1[0], lookahead[0], score1, -steps, lookahead)
+                if best_key is None or key > best_key:
+                    best_key, best = key, (u, m, a1, q1, p1)
+        u, _, aoi, dist, p1 = best
+        idx.append(p)
+        sched.append(u)
+        p = p1
+    plan = Plan.from_indices(instance, idx, sched)
+    return Result.from_plan(
+        instance, "greedy", objective, plan, status="feasible",
+        runtime_s=time.perf_counter() - t0,
+        solver={"rule": "aoi" if aoi_objective else "voi", "lookahead": 1},
+    )
+
+
+# ------------------------------------------------------------------------- shortest path
+
+
+def _lattice_graph(instance: Instance) -> nx.Graph:
+    lat = lattice_mod.build(instance)
+    g = nx.Graph()
+    g.add_nodes_from(range(lat.n_points))
+    for p in range(lat.n_points):
+        for m in range(1, 5):
+            q = int(lat.neighbors[p, m])
+            if q >= 0:
+                g.add_edge(p, q)
+    return g
+
+
+def _best_points_for_order(order, candidates, dist, start) -> tuple[float, list[int]]:
+    """Exact DP: for a fixed sensor order, the in-range point of each sensor minimising the
+    closed walk start -> ... -> start. Returns (length, points in order)."""
+    cost = {start: (0.0, [])}
+    for i in order:
+        new = {}
+        for q in candidates[i]:
+            length, pts = min(((c + dist[p][q], ps) for p, (c, ps) in cost.items()), key=lambda x: x[0])
+            new[q] = (length, [*pts, q])
+        cost = new
+    return min(((c + dist[p][start], ps) for p, (c, ps) in cost.items()), key=lambda x: x[0])
+
+
+def _tour(instance: Instance, g: nx.Graph, seed: int) -> tuple[list[int], dict]:
+    """Waypoints (one in-range point per servable sensor) of a shortest closed walk from start."""
+    lat = lattice_mod.build(instance)
+    start = lat.start
+    servable = [i for i in range(instance.n_sensors) if lat.in_range[i].any()]
+    candidates = {i: np.flatnonzero(lat.in_range[i]).tolist() for i in servable}
+    dist = dict(nx.all_pairs_shortest_path_length(g))
+    info = {"unservable_sensors": [i for i in range(instance.n_sensors) if i not in servable]}
+    if len(servable) <= EXACT_TOUR_MAX_SENSORS:
+        best = (math.inf, [])
+        for order in itertools.permutations(servable):
+            cand = _best_points_for_order(order, candidates, dist, start)
+            if cand[0] < best[0]:
+                best = cand
+        info["tour"] = "exact"
+    else:
+        # Heuristic: an order from networkx's TSP (simulated annealing, fixed seed) over the
+        # sensors with the fewest moves between their in-range sets, then the exact DP above
+        # picks the points for that order.
+        h = nx.complete_graph(["start", *servable])
+        def gap(a, b):
+            qa = [start] if a == "start" else candidates[a]
+            qb = [start] if b == "start" else candidates[b]
+            return min(dist[x][y] for x in qa for y in qb)
+        for a, b in h.edges:
+            h[a][b]["weight"] = gap(a, b)
+        cycle = nx.approximation.simulated_annealing_tsp(h, "greedy", weight="weight", seed=seed)
+        k = cycle.index("start")
+        order = [v for v in cycle[k + 1:] + cycle[1:k] if v != "start"]
+        best = _best_points_for_order(order, candidates, dist, start)
+        info["tour"] = "heuristic: networkx simulated_annealing_tsp order + exact point choice"
+    info["tour_length"] = int(best[0]) if math.isfinite(best[0]) else 0
+    return best[1], info
+
+
+def shortest_path(instance: Instance, objective: str, *, progress: bool = False, seed: int = 0) -> Result:
+    """The paper's benchmark: the shortest closed walk from start that comes within d_th of
+    every sensor, followed cyclically for T slots, uploading the in-range sensor of largest
+    AoI each slot (lowest index on ties). Exact tour for N <= 7, a heuristic above."""
+    t0 = time.perf_counter()
+    check_objective(objective)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise OptionError(f"seed: must be an integer >= 0, got {seed!r}")
+    lat = lattice_mod.build(instance)
+    g = _lattice_graph(instance)
+    waypoints, info = _tour(instance, g, int(seed))
+    walk = [lat.start]
+    for q in [*waypoints, lat.start]:
+        walk.extend(nx.shortest_path(g, walk[-1], q)[1:])
+    cycle = walk[:-1] if len(walk) > 1 else walk  # closed: the last point is the start again
+    aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
+    idx, sched = [], []
+    for t in range(instance.horizon):
+        p = cycle[t % len(cycle)]
+        in_range = np.flatnonzero(lat.in_range[:, p])
+        u = int(in_range[np.argmax(aoi[in_range])]) if len(in_range) else -1
+        aoi += 1
+        if u >= 0:
+            aoi[u] = 1
+        idx.append(p)
+        sched.append(u)
+    plan = Plan.from_indices(instance, idx, sched)
+    return Result.from_plan(
+        instance, "shortest-path", objective, plan, status="feasible",
+        runtime_s=time.perf_counter() - t0, solver={**info, "seed": int(seed)},
+    )
