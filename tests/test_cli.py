@@ -1,0 +1,135 @@
+"""The command line: exit codes, one-line errors, no tracebacks."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from conftest import ROOT
+
+import voiopt
+from voiopt.cli import main
+from voiopt.generate import CASE_STUDY_PLAN
+
+CASE = str(ROOT / "instances" / "case-study.json")
+PLAN = str(ROOT / "instances" / "case-study.plan.json")
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def one_line_error(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def test_validate_ok_and_bad(capsys, tmp_path):
+    assert run(capsys, "validate", CASE)[:2] == (0, "ok\n")
+    bad = tmp_path / "bad.json"
+    d = voiopt.case_study().to_dict()
+    d["sensors"][2]["rho"] = 1.0
+    bad.write_text(json.dumps(d))
+    code, out, err = run(capsys, "validate", str(bad))
+    assert code == 2
+    assert one_line_error(err) == f"{bad}: sensors[2].rho: must be in (0, 1), got 1.0"
+
+
+def test_validate_lists_every_error(capsys, tmp_path):
+    bad = tmp_path / "bad.json"
+    d = voiopt.case_study().to_dict()
+    d["sensors"][0]["rho"] = 0
+    d["horizon"] = -3
+    bad.write_text(json.dumps(d))
+    code, _, err = run(capsys, "validate", str(bad))
+    assert code == 2 and len(err.strip().splitlines()) == 2
+
+
+def test_evaluate_table_and_json(capsys, tmp_path):
+    code, out, _ = run(capsys, "evaluate", CASE, PLAN)
+    assert code == 0 and "mean-min-voi" in out and "7.9" in out
+    code, out, _ = run(capsys, "evaluate", CASE, PLAN, "--json")
+    metrics = json.loads(out)["metrics"]
+    assert metrics == voiopt.evaluate(voiopt.case_study(), CASE_STUDY_PLAN)
+    assert set(metrics) == {"min-voi", "mean-min-voi", "max-aoi", "mean-max-aoi"}
+    # a whole result JSON works as PLAN too
+    result = tmp_path / "result.json"
+    result.write_text(json.dumps({"instance": "case-study", "plan": CASE_STUDY_PLAN}))
+    code, out, _ = run(capsys, "evaluate", CASE, str(result), "--json")
+    assert json.loads(out)["metrics"] == metrics
+
+
+@pytest.mark.parametrize(
+    "plan,message",
+    [
+        ({"positions": [[0, 2]] * 10, "schedule": [2] + [None] * 9}, "schedule[0]: sensor 2 is out of range"),
+        ({"positions": [[0, 2]] * 3, "schedule": [None] * 3}, "positions: must have horizon = 10 entries"),
+        ("not json", "invalid JSON at line 1"),
+    ],
+)
+def test_evaluate_bad_plans_exit_2(capsys, tmp_path, plan, message):
+    p = tmp_path / "plan.json"
+    p.write_text(plan if isinstance(plan, str) else json.dumps(plan))
+    code, out, err = run(capsys, "evaluate", CASE, str(p))
+    assert code == 2 and out == ""
+    assert message in one_line_error(err)
+
+
+def test_evaluate_missing_files_exit_2(capsys, tmp_path):
+    code, _, err = run(capsys, "evaluate", str(tmp_path / "none.json"), PLAN)
+    assert code == 2 and "no such file" in one_line_error(err)
+    code, _, err = run(capsys, "evaluate", CASE, str(tmp_path / "none.json"))
+    assert code == 2 and "no such file" in one_line_error(err)
+
+
+def test_generate_set_is_deterministic(capsys, tmp_path):
+    for out_dir in ("a", "b"):
+        assert run(capsys, "generate", "--sensors", "3", "--horizon", "8", "--count", "4", "--seed", "5", "--out", str(tmp_path / out_dir))[0] == 0
+    a = sorted((tmp_path / "a").iterdir())
+    b = sorted((tmp_path / "b").iterdir())
+    assert len(a) == 4 and [p.read_text() for p in a] == [p.read_text() for p in b]
+    assert voiopt.load(a[0]).n_sensors == 3
+    code, out, _ = run(capsys, "generate", "--sensors", "2", "--rho", "0.2", "0.3", "--power", "0.01")
+    inst = voiopt.instance.from_dict(json.loads(out))
+    assert all(0.2 <= s.rho <= 0.3 and s.power_w == 0.01 for s in inst.sensors)
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["generate", "--sensors", "0"], "sensors: must be an integer >= 1"),
+        (["generate", "--count", "3"], "--count: more than one network needs --out DIR"),
+        (["generate", "--rho", "0.5", "2"], "rho: must be a range"),
+        (["solve", CASE, "--method", "nope"], "method: unknown method 'nope'"),
+        (["solve", CASE, "--time-limit", "-1"], "--time-limit: must be > 0 seconds"),
+    ],
+)
+def test_bad_options_exit_2(capsys, argv, message):
+    code, _, err = run(capsys, *argv)
+    assert code == 2 and message in one_line_error(err)
+
+
+def test_usage_errors_are_one_line(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["solve", CASE, "--objective", "max-voi"])
+    assert e.value.code == 2
+    assert "invalid choice: 'max-voi'" in one_line_error(capsys.readouterr().err)
+
+
+def test_installed_command_has_no_traceback(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"horizon": 3,}')
+    proc = subprocess.run([sys.executable, "-m", "voiopt", "validate", str(bad)], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert one_line_error(proc.stderr).endswith("invalid JSON at line 1, column 15: Expecting property name enclosed in double quotes")
+
+
+def test_demo_prints_the_case_study_metrics(capsys):
+    code, out, _ = run(capsys, "demo")
+    assert code == 0 and "case-study" in out and "mean-min-voi" in out

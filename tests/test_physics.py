@@ -1,0 +1,97 @@
+"""VoI against a 400-digit Decimal reference, including the edge cases of the issue."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from decimal import Decimal, getcontext
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from voiopt import physics
+from voiopt.instance import Channel
+
+CH = Channel()
+
+
+def reference_voi(aoi: int, q: float, rho: float, power: float, ch: Channel = CH) -> float:
+    """-B log2(1 - P g0 rho^A / (B N0 q^2 + P g0)) in 400-digit decimal arithmetic."""
+    getcontext().prec = 400  # x can be ~1e-300; 1 - x must keep its digits
+    g0 = Decimal(10) ** (Decimal(repr(ch.g0_db)) / 10)
+    n0 = Decimal(10) ** (Decimal(repr(ch.noise_dbm_per_hz)) / 10) / 1000
+    b, p, r, d = Decimal(ch.bandwidth_hz), Decimal(power), Decimal(rho), Decimal(q)  # exact binary values
+    x = p * g0 * r**aoi / (b * n0 * d * d + p * g0)
+    if x == 0:
+        return 0.0
+    return float(-b * (1 - x).ln() / Decimal(2).ln())
+
+
+def close(a: float, b: float, rtol: float = 1e-12) -> bool:
+    return abs(a - b) <= rtol * abs(b) or (b == 0 and a == 0) or abs(a - b) < 1e-300
+
+
+CASES = [
+    (1, 0.0, 0.7, 1.0),  # q = 0: upload at the sensor's own position
+    (1, 0.0, 1 - 1e-9, 1.0),  # x within 1e-9 of 1
+    (1, 0.3, 1 - 1e-9, 100.0),
+    (1, 1.0, 1e-6, 1.0),  # tiny rho
+    (3, 1.0, 1e-6, 1.0),  # tiny rho, x = 1e-18
+    (10_000, 1.0, 0.999, 1.0),  # huge age, still representable
+    (10_000, 1.0, 0.5, 1.0),  # huge age, underflows to 0
+    (10_000, 1.0, 1 - 1e-9, 1e-4),
+    (5, 1.0, 0.6, 1e-6),  # very small power: distance dominates
+    (5, 1.0, 0.6, 1e6),  # very large power
+    (2, 0.7, 0.7, 0.01),
+]
+
+
+@pytest.mark.parametrize("aoi,q,rho,power", CASES)
+def test_edge_cases_match_high_precision(aoi, q, rho, power):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        v = physics.voi(aoi, q, rho, power, CH)
+    ref = reference_voi(aoi, q, rho, power)
+    assert math.isfinite(v) and v >= 0
+    if ref < 1e-300:
+        assert v < 1e-290
+    else:
+        assert close(v, ref, 1e-11), (v, ref)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.integers(1, 10_000),
+    st.floats(0, 5),
+    st.floats(1e-6, 1 - 1e-9),
+    st.floats(1e-4, 1e3),
+)
+def test_random_points_match_high_precision(aoi, q, rho, power):
+    v = physics.voi(aoi, q, rho, power, CH)
+    ref = reference_voi(aoi, q, rho, power)
+    if ref < 1e-290:
+        assert 0 <= v < 1e-280
+    else:
+        assert close(v, ref, 1e-10), (v, ref)
+
+
+def test_vectorised_matches_scalar_and_is_monotone():
+    aoi = np.arange(1, 60)[:, None]
+    q = np.array([0.0, 0.5, 1.0])[None, :]
+    v = physics.voi(aoi, q, 0.8, 0.01, CH)
+    assert v.shape == (59, 3)
+    assert v[7, 1] == physics.voi(8, 0.5, 0.8, 0.01, CH)
+    assert np.all(np.diff(v, axis=0) < 0), "VoI falls with age"
+    assert np.all(np.diff(v, axis=1) < 0), "VoI falls with distance"
+
+
+def test_units_and_snr():
+    assert physics.g0_linear(CH) == pytest.approx(1e-5)
+    assert physics.noise_w_per_hz(CH) == pytest.approx(1e-14)
+    # paper's SNR at 1 m with P = 1 W: 1e-5 / (2e6 * 1e-14) = 500
+    assert physics.snr(1.0, 1.0, CH) == pytest.approx(500.0)
+    c = physics.distance_factor(1.0, 1.0, CH)
+    assert c == pytest.approx(500 / 501)
+    assert physics.voi_of_x(0.5, CH.bandwidth_hz) == pytest.approx(2e6)

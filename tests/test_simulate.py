@@ -1,0 +1,148 @@
+"""The simulator against a hand-checked trace and an independent recomputation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import voiopt
+from voiopt.errors import PlanError
+from voiopt.generate import CASE_STUDY_PLAN
+from voiopt.result import Plan
+from voiopt.simulate import simulate
+
+B = 2e6
+
+
+def voi_by_hand(aoi, q, rho, power=1.0):
+    pg, bn = power * 1e-5, B * 1e-14 * q * q
+    return -B * math.log1p(-pg * rho**aoi / (bn + pg)) / math.log(2)
+
+
+def test_case_study_hand_trace(case_study):
+    traj = simulate(case_study, Plan.from_dict(CASE_STUDY_PLAN))
+    # A(0) = [2, 4, 4]; uploads: s0 in slots 2-4, s1 in 5-6, s2 in 8-9 (effective next slot)
+    expected_aoi = [
+        [2, 4, 4], [3, 5, 5], [4, 6, 6], [1, 7, 7], [1, 8, 8], [1, 9, 9],
+        [2, 1, 10], [3, 1, 11], [4, 2, 12], [5, 3, 1], [6, 4, 1],
+    ]
+    assert traj.aoi.tolist() == expected_aoi
+    # effective distances: s0 uploads last at (2, 4) from (1.4, 3.6); s1 at (4, 4) from (3.7, 4.4);
+    # s2 at (4, 1) from (4.3, 1.3)
+    assert traj.distance[3, 0] == pytest.approx(math.sqrt(0.4**2 + 0.6**2))
+    assert traj.distance[4, 0] == pytest.approx(math.sqrt(0.6**2 + 0.6**2))
+    assert traj.distance[10].tolist() == pytest.approx([math.sqrt(0.52), 0.5, math.sqrt(0.18)])
+    assert traj.distance[8, 2] == 1.0  # still the initial distance
+    # the least VoI: sensor 2 in slot 8, age 12 at initial distance 1
+    assert traj.metrics["min-voi"] == pytest.approx(voi_by_hand(12, 1.0, 0.5), rel=1e-12)
+    assert traj.voi[8, 2] == traj.metrics["min-voi"]
+    mins = [min(voi_by_hand(a, q, r) for a, q, r in zip(traj.aoi[t], traj.distance[t], (0.7, 0.6, 0.5))) for t in range(1, 11)]
+    assert traj.metrics["mean-min-voi"] == pytest.approx(sum(mins) / 10, rel=1e-12)
+    assert traj.metrics["max-aoi"] == 12
+    assert traj.metrics["mean-max-aoi"] == pytest.approx((5 + 6 + 7 + 8 + 9 + 10 + 11 + 12 + 5 + 6) / 10)
+
+
+def independent(inst, positions, schedule):
+    """Metrics recomputed in plain Python from MODEL.md sections 3-5."""
+    aoi = [s.initial_aoi for s in inst.sensors]
+    q = [inst.initial_distance(i) for i in range(inst.n_sensors)]
+    mins, maxs = [], []
+    for t in range(inst.horizon):
+        u = schedule[t]
+        x, y = positions[t]
+        new_aoi = [a + 1 for a in aoi]
+        if u is not None:
+            sx, sy = inst.sensors[u].position
+            new_aoi[u] = 1
+            q[u] = math.hypot(x - sx, y - sy)
+        aoi = new_aoi
+        vs = [voi_by_hand(aoi[i], q[i], s.rho, s.power_w) if s.rho**aoi[i] > 1e-300 else 0.0 for i, s in enumerate(inst.sensors)]
+        mins.append(min(vs))
+        maxs.append(max(aoi))
+    return {"min-voi": min(mins), "mean-min-voi": sum(mins) / len(mins), "max-aoi": max(maxs), "mean-max-aoi": sum(maxs) / len(maxs)}
+
+
+@st.composite
+def instance_and_plan(draw):
+    n = draw(st.integers(1, 4))
+    size = draw(st.sampled_from([1.0, 2.0, 3.0, 4.0]))
+    inst = voiopt.generate(
+        n, draw(st.integers(1, 25)), width=size, height=draw(st.sampled_from([1.0, 2.0, 3.0])),
+        rho=(0.05, 0.95), power_w=draw(st.sampled_from([1.0, 0.01, 0.001])),
+        initial_aoi=(1, 6), seed=draw(st.integers(0, 10_000)),
+    )
+    from voiopt import lattice
+
+    lat = lattice.build(inst)
+    p, positions, schedule = lat.start, [], []
+    for _ in range(inst.horizon):
+        positions.append(lat.points[p].tolist())
+        choices = [None] + [i for i in range(n) if lat.in_range[i, p]]
+        schedule.append(draw(st.sampled_from(choices)))
+        moves = [m for m in lat.neighbors[p] if m >= 0]
+        p = int(draw(st.sampled_from(moves)))
+    return inst, positions, schedule
+
+
+@settings(max_examples=150, deadline=None)
+@given(instance_and_plan())
+def test_random_plans_match_independent_recomputation(case):
+    inst, positions, schedule = case
+    metrics = voiopt.evaluate(inst, {"positions": positions, "schedule": schedule})
+    ref = independent(inst, positions, schedule)
+    assert metrics["max-aoi"] == ref["max-aoi"]
+    assert metrics["mean-max-aoi"] == pytest.approx(ref["mean-max-aoi"], rel=1e-12)
+    for m in ("min-voi", "mean-min-voi"):
+        assert metrics[m] == pytest.approx(ref[m], rel=1e-9, abs=1e-300)
+
+
+def plan_with(**changes):
+    d = {k: list(v) for k, v in CASE_STUDY_PLAN.items()}
+    for key, (t, value) in changes.items():
+        d[key][t] = value
+    return d
+
+
+ILLEGAL = [
+    ({"positions": [[0, 2]] * 9, "schedule": [None] * 9}, "positions: must have horizon = 10 entries, got 9"),
+    ({"positions": CASE_STUDY_PLAN["positions"], "schedule": [None] * 11}, "schedule: must have horizon = 10 entries, got 11"),
+    (plan_with(positions=(0, [0, 1])), "positions[0]: must equal start"),
+    (plan_with(positions=(3, [3, 3])), "positions[3]: [3, 3] is not one N/S/E/W step"),
+    (plan_with(positions=(3, [2, 2])), "positions[3]: [2, 2] is not one N/S/E/W step"),  # diagonal
+    (plan_with(positions=(1, [0.5, 2])), "positions[1]: [0.5, 2] is not a lattice point"),
+    (plan_with(positions=(1, [-1, 2])), "positions[1]: [-1, 2] is outside the area"),
+    (plan_with(schedule=(0, 2)), "schedule[0]: sensor 2 is out of range"),
+    (plan_with(schedule=(2, 3)), "schedule[2]: unknown sensor index 3"),
+    (plan_with(schedule=(2, -1)), "schedule[2]: unknown sensor index -1"),
+    (plan_with(schedule=(2, [0, 1])), "schedule[2]: must be a sensor index or null"),  # two sensors in one slot
+    (plan_with(schedule=(2, "0")), "schedule[2]: must be a sensor index or null"),
+    ({"positions": CASE_STUDY_PLAN["positions"]}, "schedule: must be a list"),
+    ({"positions": CASE_STUDY_PLAN["positions"], "schedule": [None] * 10, "moves": []}, "moves: unknown field"),
+]
+
+
+@pytest.mark.parametrize("plan,message", ILLEGAL)
+def test_illegal_plans_are_rejected(case_study, plan, message):
+    with pytest.raises(PlanError) as e:
+        voiopt.evaluate(case_study, plan)
+    assert str(e.value).startswith(message), str(e.value)
+
+
+def test_whole_result_is_accepted_as_plan(case_study):
+    result = {"instance": "case-study", "plan": CASE_STUDY_PLAN, "status": "feasible"}
+    assert voiopt.evaluate(case_study, result) == voiopt.evaluate(case_study, CASE_STUDY_PLAN)
+
+
+def test_sensor_out_of_every_range_only_decays():
+    inst = voiopt.Instance.replace(
+        voiopt.generate(1, 5, width=1, height=1, seed=1),
+        channel={"d_th": 0.01},
+        sensors=[{"position": [0.5, 0.5], "rho": 0.5, "initial_aoi": 3}],
+    )
+    traj = simulate(inst, Plan.from_dict({"positions": [list(inst.start)] * 5, "schedule": [None] * 5}))
+    assert traj.aoi[:, 0].tolist() == [3, 4, 5, 6, 7, 8]
+    assert np.all(np.diff(traj.voi[:, 0]) < 0)
