@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
@@ -181,3 +182,23 @@ def test_shipped_case_study_matches_the_generator(case_study):
     assert case_study.n_sensors == 3 and case_study.horizon == 10
     assert [s.rho for s in case_study.sensors] == [0.7, 0.6, 0.5]
     assert [s.initial_aoi for s in case_study.sensors] == [2, 4, 4]
+
+
+SCHEMA = json.loads((Path(__file__).parent.parent / "docs" / "instance.schema.json").read_text())
+
+
+def test_published_schema_accepts_valid_instances(case_study):
+    import jsonschema
+
+    jsonschema.validate(case_study.to_dict(), SCHEMA)
+    jsonschema.validate(GOOD, SCHEMA)
+    for inst in voiopt.generate_set(5, seed=2):
+        jsonschema.validate(inst.to_dict(), SCHEMA)
+
+
+@pytest.mark.parametrize("path,value,message", [b for b in BAD if "lattice point" not in b[2] and "lie in the area" not in b[2] and not isinstance(b[1], float)])
+def test_published_schema_rejects_what_the_loader_rejects(path, value, message):
+    import jsonschema
+
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(with_change(path, value), SCHEMA)

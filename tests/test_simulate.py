@@ -40,7 +40,7 @@ def test_case_study_hand_trace(case_study):
     # the least VoI: sensor 2 in slot 8, age 12 at initial distance 1
     assert traj.metrics["min-voi"] == pytest.approx(voi_by_hand(12, 1.0, 0.5), rel=1e-12)
     assert traj.voi[8, 2] == traj.metrics["min-voi"]
-    mins = [min(voi_by_hand(a, q, r) for a, q, r in zip(traj.aoi[t], traj.distance[t], (0.7, 0.6, 0.5))) for t in range(1, 11)]
+    mins = [min(voi_by_hand(a, q, r) for a, q, r in zip(traj.aoi[t], traj.distance[t], (0.7, 0.6, 0.5), strict=True)) for t in range(1, 11)]
     assert traj.metrics["mean-min-voi"] == pytest.approx(sum(mins) / 10, rel=1e-12)
     assert traj.metrics["max-aoi"] == 12
     assert traj.metrics["mean-max-aoi"] == pytest.approx((5 + 6 + 7 + 8 + 9 + 10 + 11 + 12 + 5 + 6) / 10)
