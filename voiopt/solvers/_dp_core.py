@@ -1,0 +1,273 @@
+"""Compiled kernels of the label-setting dynamic programme (see voiopt/solvers/dp.py, docs/dp.md).
+
+Everything here works in "maximise" form on integer per-sensor ranks:
+
+- ``rank[i]``: the rank of sensor i's latest upload among all its candidate uploads, sorted
+  by score (MODEL.md section 4), so a larger rank is better at every later slot. The largest
+  rank index ``W.shape[1] - 1`` means "collapsed": the sensor can no longer change the
+  objective, and its value table row is +inf.
+- ``W[i, r, t]``: what sensor i contributes in slot t with rank r (V_i(t), or -A_i(t) for the
+  AoI objectives); the slot term is min_i W[i, rank_i, t].
+- ``mode``: 0 accumulates the slot terms by sum (the mean objectives), 1 by min (the bottleneck
+  objectives).
+- ``best_rank[i, p, t, t2]``: the best rank sensor i alone could have in slot t2 through an
+  upload in slots t..t2-1 by an entity standing at p in slot t (-1 if none is reachable): the
+  per-sensor relaxation behind the admissible future bound.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+SUM, MIN = 0, 1
+
+
+@njit(cache=True)
+def best_rank_table(up_rank, coords, sensor_points, sensor_point_count):
+    """best_rank[i, p, t, t2] for t2 in t+1..T (other entries -1), int16."""
+    T, n, N = up_rank.shape
+    out = np.full((N, n, T, T + 1), -1, dtype=np.int16)
+    for i in range(N):
+        for p in range(n):
+            px, py = coords[p, 0], coords[p, 1]
+            # steps from p to each in-range point of sensor i
+            k = sensor_point_count[i]
+            steps = np.empty(k, dtype=np.int64)
+            for j in range(k):
+                q = sensor_points[i, j]
+                steps[j] = abs(coords[q, 0] - px) + abs(coords[q, 1] - py)
+            for t in range(T):
+                cur = -1
+                for s in range(t, T):
+                    for j in range(k):
+                        if steps[j] <= s - t:
+                            r = up_rank[s, sensor_points[i, j], i]
+                            if r > cur:
+                                cur = r
+                    out[i, p, t, s + 1] = cur
+    return out
+
+
+@njit(cache=True, inline="always")
+def _combine(mode, acc, w):
+    if mode == SUM:
+        return acc + w
+    return min(acc, w)
+
+
+@njit(cache=True, inline="always")
+def _child(mode, rank, acc, u, up_rank_here, W, tau, child):
+    """The ranks after uploading sensor u (-1: none) into ``child``; returns the new accumulated value."""
+    N = rank.shape[0]
+    for i in range(N):
+        child[i] = rank[i]
+    if u >= 0:
+        child[u] = up_rank_here[u]
+    w = np.inf
+    for i in range(N):
+        v = W[i, child[i], tau]
+        if v < w:
+            w = v
+    return _combine(mode, acc, w)
+
+
+@njit(cache=True)
+def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse):
+    """Admissible bound on the final value of a label in slot tau at q, and collapse in place.
+
+    Future slot t2 > tau: sensor i's value is at most W[i, max(rank_i, best_rank), t2] and at
+    least W[i, rank_i, t2]. A sensor whose lowest possible value exceeds some other sensor's
+    highest possible value (or, for min accumulation, is already >= acc) is never the binding
+    minimum in any completion: its rank is set to the collapsed rank (exact, docs/dp.md)."""
+    N = rank.shape[0]
+    T = W.shape[2] - 1
+    big = W.shape[1] - 1
+    ub = acc
+    for i in range(N):
+        matters[i] = False
+    for t2 in range(tau + 1, T + 1):
+        m1 = np.inf
+        m2 = np.inf
+        a1 = -1
+        for i in range(N):
+            r = rank[i]
+            b = best_rank[i, q, tau, t2]
+            if b > r:
+                r = b
+            u = W[i, r, t2]
+            if u < m1:
+                m2 = m1
+                m1 = u
+                a1 = i
+            elif u < m2:
+                m2 = u
+        if mode == SUM:
+            ub += m1
+        elif m1 < ub:
+            ub = m1
+        if collapse:
+            for i in range(N):
+                if matters[i]:
+                    continue
+                lo = W[i, rank[i], t2]
+                other = m2 if i == a1 else m1
+                if lo > other:
+                    continue
+                if mode == MIN and lo >= acc:
+                    continue
+                matters[i] = True
+    if collapse:
+        for i in range(N):
+            if not matters[i]:
+                rank[i] = big
+    return ub
+
+
+@njit(cache=True)
+def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse):
+    """Bound (and collapse) of every label of one layer: used for the start label."""
+    L, N = ranks.shape
+    ub = np.empty(L)
+    matters = np.zeros(N, dtype=np.bool_)
+    for l in range(L):
+        ub[l] = _bound_and_collapse(mode, ranks[l], acc[l], pos[l], t, W, best_rank, matters, collapse)
+    return ub
+
+
+@njit(cache=True)
+def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_range_count, W, best_rank,
+           incumbent, q_lo, q_hi, beam, collapse):
+    """Children in slot t+1 at target points q_lo..q_hi-1 of the layer in slot t.
+
+    Returns the non-dominated children whose bound beats ``incumbent``, grouped by point:
+    (ranks, acc, ub, parent, upload, pos, count per point, children generated)."""
+    N = ranks.shape[1]
+    tau = t + 1
+    # capacity: every (label, upload) pair of every source point
+    cap = 0
+    max_m = 0
+    for q in range(q_lo, q_hi):
+        m = 0
+        for k in range(5):
+            p = nbr[q, k]
+            if p >= 0:
+                m += (off[p + 1] - off[p]) * (1 + in_range_count[p])
+        cap += m
+        if m > max_m:
+            max_m = m
+    out_rank = np.empty((cap, N), dtype=np.int16)
+    out_acc = np.empty(cap)
+    out_ub = np.empty(cap)
+    out_par = np.empty(cap, dtype=np.int64)
+    out_up = np.empty(cap, dtype=np.int8)
+    out_pos = np.empty(cap, dtype=np.int32)
+    counts = np.zeros(q_hi - q_lo, dtype=np.int64)
+    c_rank = np.empty((max_m, N), dtype=np.int16)
+    c_acc = np.empty(max_m)
+    c_ub = np.empty(max_m)
+    c_par = np.empty(max_m, dtype=np.int64)
+    c_up = np.empty(max_m, dtype=np.int8)
+    c_sum = np.empty(max_m)
+    kept = np.empty(max_m, dtype=np.int64)
+    matters = np.zeros(N, dtype=np.bool_)
+    child = np.empty(N, dtype=np.int16)
+    n_out = 0
+    generated = 0
+    for q in range(q_lo, q_hi):
+        m = 0
+        for k in range(5):
+            p = nbr[q, k]  # moves are symmetric: q is one move from p iff p is one move from q
+            if p < 0:
+                continue
+            for l in range(off[p], off[p + 1]):
+                if ub_in[l] <= incumbent:
+                    continue
+                for o in range(-1, in_range_count[p]):
+                    u = -1
+                    if o >= 0:
+                        u = in_range_list[p, o]
+                        if up_rank[t, p, u] <= ranks[l, u]:
+                            continue  # an upload that does not improve is dominated by none
+                    a = _child(mode, ranks[l], acc[l], u, up_rank[t, p], W, tau, child)
+                    generated += 1
+                    ub = _bound_and_collapse(mode, child, a, q, tau, W, best_rank, matters, collapse)
+                    if ub <= incumbent:
+                        continue
+                    s = 0.0
+                    for i in range(N):
+                        c_rank[m, i] = child[i]
+                        s += child[i]
+                    c_sum[m] = -s
+                    c_acc[m] = -a
+                    c_ub[m] = ub
+                    c_par[m] = l
+                    c_up[m] = u
+                    m += 1
+        if m == 0:
+            continue
+        # Pareto filter: order by accumulated value, then rank sum (both descending), then
+        # generation order; a label can only be dominated by one before it.
+        o1 = np.argsort(c_sum[:m], kind="mergesort")
+        o2 = np.argsort(c_acc[o1], kind="mergesort")
+        nk = 0
+        for j in range(m):
+            c = o1[o2[j]]
+            dominated = False
+            for h in range(nk):
+                d = kept[h]
+                ok = True
+                for i in range(N):
+                    if c_rank[d, i] < c_rank[c, i]:
+                        ok = False
+                        break
+                if ok:
+                    dominated = True
+                    break
+            if not dominated:
+                kept[nk] = c
+                nk += 1
+        if beam > 0 and nk > beam:
+            sel = np.argsort(-c_ub[kept[:nk]], kind="mergesort")[:beam]
+            sel = np.sort(sel)
+            for h in range(beam):
+                kept[h] = kept[sel[h]]
+            nk = beam
+        for h in range(nk):
+            c = kept[h]
+            for i in range(N):
+                out_rank[n_out, i] = c_rank[c, i]
+            out_acc[n_out] = -c_acc[c]
+            out_ub[n_out] = c_ub[c]
+            out_par[n_out] = c_par[c]
+            out_up[n_out] = c_up[c]
+            out_pos[n_out] = q
+            n_out += 1
+        counts[q - q_lo] = nk
+    return (out_rank[:n_out].copy(), out_acc[:n_out].copy(), out_ub[:n_out].copy(), out_par[:n_out].copy(),
+            out_up[:n_out].copy(), out_pos[:n_out].copy(), counts, generated)
+
+
+@njit(cache=True)
+def finish(mode, t, ranks, acc, pos, up_rank, in_range_list, in_range_count, W):
+    """The best complete plan from the last layer (slot T-1): (value, label, upload)."""
+    N = ranks.shape[1]
+    T = t + 1
+    best = -np.inf
+    best_l = -1
+    best_u = -1
+    child = np.empty(N, dtype=np.int16)
+    for l in range(ranks.shape[0]):
+        p = pos[l]
+        for o in range(-1, in_range_count[p]):
+            u = -1
+            if o >= 0:
+                u = in_range_list[p, o]
+                if up_rank[t, p, u] <= ranks[l, u]:
+                    continue
+            a = _child(mode, ranks[l], acc[l], u, up_rank[t, p], W, T, child)
+            if a > best:
+                best = a
+                best_l = l
+                best_u = u
+    return best, best_l, best_u

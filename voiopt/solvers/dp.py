@@ -1,0 +1,320 @@
+"""Exact label-setting dynamic programme with dominance and bounds (docs/dp.md).
+
+A label is (slot, position, per-sensor rank of the latest upload, accumulated objective).
+Forward over slots, at every (slot, position) only the non-dominated labels survive; labels
+whose admissible bound cannot beat the incumbent are dropped; sensors that can no longer
+change the objective are collapsed. The compiled kernels live in ``_dp_core``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from voiopt import lattice as lattice_mod
+from voiopt import physics
+from voiopt.instance import Instance
+from voiopt.interrupt import progress_bar, stop_on_interrupt
+from voiopt.result import Plan, Result
+from voiopt.simulate import simulate
+
+AOI_OBJECTIVES = ("max-aoi", "mean-max-aoi")
+CHUNK_WORK = 400_000  # (label, upload) pairs per kernel call: the granularity of time checks
+DEFAULT_BEAM = 16
+
+
+@dataclass
+class Tables:
+    """The instance compiled for the kernels (see the module docstring of _dp_core)."""
+
+    mode: int  # SUM or MIN
+    initial_rank: np.ndarray  # (N,) int16
+    up_rank: np.ndarray  # (T, n, N) int16, -1 where out of range
+    W: np.ndarray  # (N, R, T+1) float64, row R-1 = collapsed (+inf)
+    best_rank: np.ndarray  # (N, n, T, T+1) int16
+    in_range_list: np.ndarray  # (n, N) sensors in range of each point
+    in_range_count: np.ndarray  # (n,)
+    neighbors: np.ndarray  # (n, 5)
+    start: int
+    to_internal: float  # objective value * to_internal = internal (maximised) value
+    objective: str
+
+
+def build_tables(instance: Instance, objective: str) -> Tables:
+    """Candidate uploads per sensor, their ranks by score, and the value table W."""
+    from voiopt.solvers import _dp_core as core
+
+    lat = lattice_mod.build(instance)
+    T, N, n = instance.horizon, instance.n_sensors, lat.n_points
+    aoi = objective in AOI_OBJECTIVES
+    # candidates (s, d): an upload in slot s at distance d; the held packet is s = -A_i(0), d = q_i(0)
+    cand_lists = []
+    for i, sensor in enumerate(instance.sensors):
+        s0, d0 = -sensor.initial_aoi, instance.initial_distance(i)
+        if aoi:
+            cands = [(s0, 0.0)] + [(s, 0.0) for s in range(T)]  # only the slot matters
+            keys = [float(s) for s, _ in cands]
+        else:
+            dists = sorted(set(float(d) for d in lat.distance[i][lat.in_range[i]]))
+            cands = [(s0, d0)] + [(s, d) for s in range(T) for d in dists]
+            log_rho = math.log(sensor.rho)
+            log_c = {d: float(np.log(physics.distance_factor(sensor.power_w, d, instance.channel)))
+                     for d in set(dists) | {d0}}
+            keys = [-s * log_rho + log_c[d] for s, d in cands]
+        order = sorted(range(len(cands)), key=lambda k: (keys[k], cands[k][0], -cands[k][1]))
+        cand_lists.append([cands[k] for k in order])
+    R = max(len(c) for c in cand_lists) + 1
+    if R >= np.iinfo(np.int16).max:
+        raise ValueError(f"dp: too many candidate uploads per sensor ({R}) for int16 ranks")
+    W = np.full((N, R, T + 1), np.inf)
+    initial_rank = np.empty(N, dtype=np.int16)
+    up_rank = np.full((T, n, N), -1, dtype=np.int16)
+    t_grid = np.arange(T + 1)
+    for i, sensor in enumerate(instance.sensors):
+        rank_of = {c: r for r, c in enumerate(cand_lists[i])}
+        s0, d0 = -sensor.initial_aoi, (0.0 if aoi else instance.initial_distance(i))
+        initial_rank[i] = rank_of[(s0, d0)]
+        for r, (s, d) in enumerate(cand_lists[i]):
+            later = t_grid > s
+            age = t_grid[later] - s
+            if aoi:
+                W[i, r, later] = -age
+            else:
+                W[i, r, later] = physics.voi(age, d, sensor.rho, sensor.power_w, instance.channel)
+        for p in np.flatnonzero(lat.in_range[i]):
+            d = 0.0 if aoi else float(lat.distance[i, p])
+            for s in range(T):
+                up_rank[s, p, i] = rank_of[(s, d)]
+    in_range_count = lat.in_range.sum(axis=0).astype(np.int64)
+    in_range_list = np.full((n, max(N, 1)), -1, dtype=np.int64)
+    for p in range(n):
+        ids = np.flatnonzero(lat.in_range[:, p])
+        in_range_list[p, : len(ids)] = ids
+    sensor_point_count = lat.in_range.sum(axis=1).astype(np.int64)
+    sensor_points = np.zeros((N, max(1, int(sensor_point_count.max()))), dtype=np.int64)
+    for i in range(N):
+        ids = np.flatnonzero(lat.in_range[i])
+        sensor_points[i, : len(ids)] = ids
+    best_rank = core.best_rank_table(up_rank, lat.coords.astype(np.int64), sensor_points, sensor_point_count)
+    mode = core.SUM if objective.startswith("mean") else core.MIN
+    to_internal = (T if mode == core.SUM else 1.0) * (-1.0 if aoi else 1.0)
+    return Tables(mode, initial_rank, up_rank, W, best_rank, in_range_list, in_range_count,
+                  np.ascontiguousarray(lat.neighbors, dtype=np.int64), lat.start, to_internal, objective)
+
+
+@dataclass
+class SearchOutcome:
+    value: float  # internal, -inf if nothing beat the incumbent
+    plan: tuple[np.ndarray, np.ndarray] | None  # (positions, schedule) of the best found
+    complete: bool  # every label processed: the optimum is max(value, incumbent)
+    open_bound: float  # when incomplete: max bound over the labels still open
+    labels: int  # labels created (kept after filtering), all layers
+    generated: int  # children generated before filtering
+    peak_layer: int
+    peak_bytes: int
+    slots_done: int
+
+
+def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = True, bounding: bool = True,
+           deadline: float | None = None, memory_bytes: float | None = None, stop=None,
+           progress: bool = False) -> SearchOutcome:
+    """One forward pass. ``beam`` > 0 keeps only that many labels per point (a heuristic)."""
+    from voiopt.solvers import _dp_core as core
+
+    T, n, N = tab.up_rank.shape
+    inc = incumbent if bounding else -np.inf
+    ranks = tab.initial_rank[None, :].copy()
+    acc = np.array([np.inf if tab.mode == core.MIN else 0.0])
+    pos = np.array([tab.start], dtype=np.int32)
+    ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse)
+    history: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per slot >= 1: parent, upload, pos
+    stored = 0
+    peak_layer = 1
+    peak_bytes = 0
+    labels = 1
+    generated = 0
+    bar = progress_bar(progress)
+    with bar:
+        task = bar.add_task("dp beam" if beam else "dp slots", total=T)
+        for t in range(T - 1):
+            keep = ub > inc
+            off = np.zeros(n + 1, dtype=np.int64)
+            np.add.at(off, pos[keep].astype(np.int64) + 1, 1)
+            off = np.cumsum(off)
+            idx = np.flatnonzero(keep)  # labels are grouped by point already
+            work = np.zeros(n, dtype=np.int64)
+            per_point = (off[1:] - off[:-1]) * (1 + tab.in_range_count)
+            for k in range(5):
+                nb = tab.neighbors[:, k]
+                work += np.where(nb >= 0, per_point[np.maximum(nb, 0)], 0)
+            parts = []
+            l_ranks, l_acc, l_ub = ranks[idx], acc[idx], ub[idx]
+            q_lo = 0
+            stopped = False
+            while q_lo < n:
+                q_hi = q_lo + 1
+                total = work[q_lo]
+                while q_hi < n and total + work[q_hi] <= CHUNK_WORK:
+                    total += work[q_hi]
+                    q_hi += 1
+                out = core.expand(tab.mode, t, l_ranks, l_acc, l_ub, off, tab.neighbors, tab.up_rank,
+                                  tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo, q_hi,
+                                  beam, collapse)
+                out = (*out[:3], idx[out[3]], *out[4:])
+                parts.append(out)
+                generated += int(out[7])
+                q_lo = q_hi
+                if q_lo < n and _must_stop(deadline, stop, memory_bytes, stored + sum(p[0].nbytes for p in parts)):
+                    stopped = True
+                    break
+            if stopped:
+                return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t)
+            new_ranks = np.concatenate([p[0] for p in parts])
+            acc = np.concatenate([p[1] for p in parts])
+            new_ub = np.concatenate([p[2] for p in parts])
+            parent = np.concatenate([p[3] for p in parts])
+            upload = np.concatenate([p[4] for p in parts])
+            pos = np.concatenate([p[5] for p in parts])
+            history.append((parent, upload, pos))
+            stored += parent.nbytes + upload.nbytes + pos.nbytes
+            layer_bytes = new_ranks.nbytes + acc.nbytes + new_ub.nbytes
+            peak_bytes = max(peak_bytes, stored + layer_bytes + ranks.nbytes)
+            ranks, ub = new_ranks, new_ub
+            labels += len(acc)
+            peak_layer = max(peak_layer, len(acc))
+            bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels")
+            if len(acc) == 0:
+                return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, t + 1)
+            if t + 1 < T - 1 and _must_stop(deadline, stop, memory_bytes, stored + layer_bytes):
+                return _incomplete(ub, ub > inc, labels, generated, peak_layer, peak_bytes, t + 1)
+        keep = np.flatnonzero(ub > inc)
+        value, l, u = core.finish(tab.mode, T - 1, ranks[keep], acc[keep], pos[keep], tab.up_rank,
+                                  tab.in_range_list, tab.in_range_count, tab.W)
+        bar.update(task, advance=1)
+    if l < 0 or value <= inc:
+        return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, T)
+    # reconstruct through the parent pointers
+    positions = np.empty(T, dtype=np.int64)
+    schedule = np.full(T, -1, dtype=np.int64)
+    schedule[T - 1] = u
+    label = int(keep[l])
+    for t in range(T - 1, 0, -1):
+        parent, upload, at = history[t - 1]
+        positions[t] = at[label]
+        schedule[t - 1] = upload[label]
+        label = int(parent[label])
+    positions[0] = tab.start
+    return SearchOutcome(float(value), (positions, schedule), True, -np.inf, labels, generated, peak_layer,
+                         peak_bytes, T)
+
+
+def _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t) -> SearchOutcome:
+    open_bound = float(ub[keep].max()) if keep.any() else -np.inf
+    return SearchOutcome(-np.inf, None, False, open_bound, labels, generated, peak_layer, peak_bytes, t)
+
+
+def _must_stop(deadline, stop, memory_bytes, used) -> bool:
+    if stop is not None and stop.requested:
+        return True
+    if deadline is not None and time.perf_counter() >= deadline:
+        return True
+    return memory_bytes is not None and used >= memory_bytes
+
+
+def _internal(tab: Tables, value: float) -> float:
+    return value * tab.to_internal
+
+
+def _external(tab: Tables, value: float) -> float:
+    return value / tab.to_internal
+
+
+def solve(
+    instance: Instance,
+    objective: str,
+    *,
+    progress: bool = False,
+    time_limit: float | None = None,
+    memory_limit: float | None = None,
+    warm_start: Plan | None = None,
+    beam: int = DEFAULT_BEAM,
+    greedy: bool = True,
+    collapse: bool = True,
+    bounding: bool = True,
+) -> Result:
+    """Optimal plan by label setting; on a time or memory limit (or Ctrl-C) the best plan and a
+    proven bound with status time_limit. ``beam``, ``greedy``, ``collapse`` and ``bounding``
+    switch ingredients off for measurements (docs/dp.md); the defaults are the fast exact set."""
+    t0 = time.perf_counter()
+    deadline = None if time_limit is None else t0 + float(time_limit)
+    memory_bytes = None if memory_limit is None else float(memory_limit) * 1e9
+    tab = build_tables(instance, objective)
+
+    # incumbents: a warm start, the greedy baseline, a beam pass of this same programme
+    best_plan: Plan | None = None
+    best_value = -np.inf  # internal
+    sources = []
+
+    def offer(plan: Plan, source: str) -> None:
+        nonlocal best_plan, best_value
+        v = _internal(tab, simulate(instance, plan).metrics[objective])
+        if best_plan is None or v > best_value:
+            best_plan, best_value = plan, v
+        sources.append((source, _external(tab, v)))
+
+    if warm_start is not None:
+        offer(warm_start, "warm_start")
+    if greedy:
+        try:
+            from voiopt.solvers.baselines import greedy as greedy_solver
+        except ImportError:  # the baseline is optional for the DP
+            greedy_solver = None
+        if greedy_solver is not None:
+            offer(greedy_solver(instance, objective).plan, "greedy")
+    with stop_on_interrupt() as stop:
+        if beam > 0:
+            out = search(tab, best_value if bounding else -np.inf, beam=beam, collapse=collapse,
+                         bounding=bounding, stop=stop)
+            if out.plan is not None:
+                offer(Plan.from_indices(instance, *out.plan), f"beam {beam}")
+        if best_plan is None:  # the entity stays and uploads nothing: always legal
+            offer(Plan.from_indices(instance, np.full(instance.horizon, tab.start), np.full(instance.horizon, -1)),
+                  "idle")
+        t_inc = time.perf_counter() - t0
+        out = search(tab, best_value, collapse=collapse, bounding=bounding, deadline=deadline,
+                     memory_bytes=memory_bytes, stop=stop, progress=progress)
+        interrupted = stop.requested
+    if out.plan is not None:
+        plan = Plan.from_indices(instance, *out.plan)
+        found = _internal(tab, simulate(instance, plan).metrics[objective])
+        if found > best_value:
+            best_plan, best_value = plan, found
+        else:  # the incumbent matches to rounding: keep it, count the DP value in the bound
+            best_value = max(best_value, out.value)
+    if out.complete:
+        bound_internal = max(best_value, out.value)
+        status = "optimal"
+    else:
+        bound_internal = max(best_value, out.open_bound)
+        status = "time_limit"
+    bound = _external(tab, bound_internal)
+    solver = {
+        "labels": out.labels,
+        "children_generated": out.generated,
+        "peak_layer_labels": out.peak_layer,
+        "peak_label_bytes": out.peak_bytes,
+        "slots_done": out.slots_done,
+        "incumbents": sources,
+        "incumbent_time_s": t_inc,
+        "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding,
+                    "time_limit": time_limit, "memory_limit": memory_limit},
+    }
+    if interrupted:
+        solver["stopped"] = "interrupted"
+    elif not out.complete:
+        solver["stopped"] = "time limit" if deadline is not None and time.perf_counter() >= deadline else "memory limit"
+    return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=bound,
+                            runtime_s=time.perf_counter() - t0, solver=solver)
