@@ -1,0 +1,67 @@
+"""Algorithm 1 in plain Python: the reference the compiled kernel must reproduce bit for bit.
+
+A dict keyed by state tuples holds one list of Q-values per state (its feasible actions, in the
+order of voiopt/models/mdp.py); random numbers are the same splitmix64 stream as the kernel's.
+Used by tests/solvers/test_qlearning.py and benchmarks/qlearning_speed.py.
+"""
+
+from __future__ import annotations
+
+_M64 = (1 << 64) - 1
+
+
+class SplitMix64:
+    def __init__(self, seed: int):
+        self.state = seed & _M64
+
+    def uniform(self) -> float:
+        self.state = (self.state + 0x9E3779B97F4A7C15) & _M64
+        z = self.state
+        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _M64
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _M64
+        z ^= z >> 31
+        return (z >> 11) * (1.0 / 9007199254740992.0)
+
+
+def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75, gamma: float = 0.9,
+                        q_init: float = 0.0):
+    """Run Algorithm 1 on an voiopt.models.mdp.MDP; return (Q dict, point indices, schedule)."""
+    rng = SplitMix64(seed)
+    T = model.horizon
+    Q: dict = {}
+    eps, eps0 = 1.0, 1.0 / episodes
+
+    def row(state):
+        if state not in Q:
+            Q[state] = [q_init] * int(model.n_actions[state[0]])
+        return Q[state]
+
+    for _ in range(episodes):
+        state = model.initial_state()
+        q = row(state)
+        for t in range(T):
+            x = rng.uniform()
+            if x < eps:
+                k = int(rng.uniform() * len(q))
+            else:
+                k = max(range(len(q)), key=lambda j: (q[j], -j))  # first maximum
+            nxt, r = model.step(state, k)
+            if t + 1 < T:
+                q_next = row(nxt)
+                future = max(q_next)
+            else:
+                future = max(Q[nxt]) if nxt in Q else q_init
+                q_next = None
+            q[k] = (1.0 - beta) * q[k] + beta * r + beta * gamma * future
+            state, q = nxt, q_next
+        eps = eps - eps0
+
+    idx, sched = [], []
+    state = model.initial_state()
+    for _ in range(T):
+        q = Q.get(state)
+        k = 0 if q is None else max(range(len(q)), key=lambda j: (q[j], -j))
+        idx.append(state[0])
+        sched.append(int(model.action_upload[state[0], k]))
+        state, _ = model.step(state, k)
+    return Q, idx, sched

@@ -1,0 +1,162 @@
+"""The MDP of MODEL.md section 7 as flat arrays, shared by Q-learning and the Gymnasium env.
+
+State s_t = (p(t), A(t), q(t)). Effective distances come from a finite set, so q_i is kept as
+an index: 0 is sensor i's initial distance q_i(0), 1 + p is its distance from lattice point p.
+Ages are at most A_i(0) + T. A state packs exactly into a few 64-bit words (no field straddles
+a word), which is the key of the compiled Q-table.
+
+Actions available at point p are numbered 0 .. n_actions[p]-1, uploads outer (none first, then
+the in-range sensors ascending) and moves inner (stay, N, S, E, W, skipping those that leave
+the area). Reward r_{t+1} = min_i V_i(t+1)/B - penalty*[no upload] (VoI), or
+-max_i A_i(t+1) - penalty*[no upload] (AoI variant).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from voiopt import lattice as lattice_mod
+from voiopt import physics
+from voiopt.errors import OptionError
+from voiopt.instance import Instance
+
+REWARDS = ("voi", "aoi")
+IDLE_PENALTY = 100.0
+
+
+@dataclass(frozen=True, eq=False)
+class MDP:
+    instance: Instance
+    reward: str  # "voi" or "aoi"
+    penalty: float
+    start: int  # lattice index of p(0)
+    initial_aoi: np.ndarray  # (N,) A_i(0)
+    n_actions: np.ndarray  # (n,) feasible actions at each point
+    action_upload: np.ndarray  # (n, K) sensor uploaded by action k at p, -1 = none (pad -1)
+    action_move: np.ndarray  # (n, K) move index 0..4 (stay, N, S, E, W)
+    action_next: np.ndarray  # (n, K) p(t+1)
+    voi_over_b: np.ndarray  # (N, max_age + 1, n + 1) V_i / B for age a and distance index
+    field_word: np.ndarray  # (1 + 2N,) word of each packed field: p, then A_i, q_i per sensor
+    field_shift: np.ndarray  # (1 + 2N,) bit offset of each field in its word
+    field_width: np.ndarray  # (1 + 2N,) bits of each field
+    n_words: int
+
+    @property
+    def n_sensors(self) -> int:
+        return self.instance.n_sensors
+
+    @property
+    def horizon(self) -> int:
+        return self.instance.horizon
+
+    @property
+    def max_actions(self) -> int:
+        return self.action_upload.shape[1]
+
+    def initial_state(self) -> tuple[int, tuple[int, ...], tuple[int, ...]]:
+        """s_0 = (start, A(0), q(0)) with every q_i at index 0 (its initial distance)."""
+        return self.start, tuple(int(a) for a in self.initial_aoi), (0,) * self.n_sensors
+
+    def actions(self, p: int) -> list[tuple[int, int]]:
+        """The feasible actions at p as (upload or -1, move index), in action-number order."""
+        k = int(self.n_actions[p])
+        return list(zip(self.action_upload[p, :k].tolist(), self.action_move[p, :k].tolist(), strict=True))
+
+    def action_number(self, p: int, upload: int, move: int) -> int:
+        """The number of action (upload, move) at p; raises if it is not feasible there."""
+        for k, (u, m) in enumerate(self.actions(p)):
+            if u == upload and m == move:
+                return k
+        raise ValueError(f"action (upload {upload}, move {move}) is not feasible at point {p}")
+
+    def step(self, state, k: int):
+        """(next state, reward) after action number k; plain Python, for the env and tests."""
+        p, aoi, qidx = state
+        u = int(self.action_upload[p, k])
+        aoi = tuple(1 if i == u else a + 1 for i, a in enumerate(aoi))
+        qidx = tuple(1 + p if i == u else q for i, q in enumerate(qidx))
+        return (int(self.action_next[p, k]), aoi, qidx), self.reward_of(aoi, qidx, u)
+
+    def reward_of(self, aoi, qidx, upload: int) -> float:
+        """r_{t+1} of MODEL.md section 7 for the next state's ages and distance indices."""
+        idle = self.penalty if upload < 0 else 0.0
+        if self.reward == "aoi":
+            return -float(max(aoi)) - idle
+        return min(float(self.voi_over_b[i, a, q]) for i, (a, q) in enumerate(zip(aoi, qidx, strict=True))) - idle
+
+    def encode(self, state) -> np.ndarray:
+        """The packed key of a state: n_words uint64 words."""
+        p, aoi, qidx = state
+        words = [0] * self.n_words
+        values = [p]
+        for a, q in zip(aoi, qidx, strict=True):
+            values += [a, q]
+        for f, v in enumerate(values):
+            words[self.field_word[f]] |= int(v) << int(self.field_shift[f])
+        return np.array(words, dtype=np.uint64)
+
+    def decode(self, words) -> tuple[int, tuple[int, ...], tuple[int, ...]]:
+        """The state of a packed key (inverse of ``encode``)."""
+        values = [
+            (int(words[w]) >> int(s)) & ((1 << int(b)) - 1)
+            for w, s, b in zip(self.field_word, self.field_shift, self.field_width, strict=True)
+        ]
+        p = values[0]
+        return p, tuple(values[1::2]), tuple(values[2::2])
+
+
+def _bits(max_value: int) -> int:
+    return max(1, int(max_value).bit_length())
+
+
+def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY) -> MDP:
+    """The arrays of the MDP of ``instance`` with the VoI or AoI reward."""
+    if reward not in REWARDS:
+        raise OptionError(f"reward: must be 'voi' or 'aoi', got {reward!r}")
+    lat = lattice_mod.build(instance)
+    n, N, T = lat.n_points, instance.n_sensors, instance.horizon
+    initial_aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
+    max_age = int(initial_aoi.max()) + T
+
+    per_point = []
+    for p in range(n):
+        uploads = [-1, *np.flatnonzero(lat.in_range[:, p]).tolist()]
+        moves = [m for m in range(5) if lat.neighbors[p, m] >= 0]
+        per_point.append([(u, m, int(lat.neighbors[p, m])) for u in uploads for m in moves])
+    K = max(len(a) for a in per_point)
+    n_actions = np.array([len(a) for a in per_point], dtype=np.int64)
+    action_upload = np.full((n, K), -1, dtype=np.int64)
+    action_move = np.full((n, K), -1, dtype=np.int64)
+    action_next = np.full((n, K), -1, dtype=np.int64)
+    for p, acts in enumerate(per_point):
+        for k, (u, m, nxt) in enumerate(acts):
+            action_upload[p, k], action_move[p, k], action_next[p, k] = u, m, nxt
+
+    # V_i / B for every age 0..max_age and distance index (0 = initial, 1 + p = from point p)
+    dist = np.concatenate(
+        [np.array([[instance.initial_distance(i)] for i in range(N)]), lat.distance], axis=1
+    )
+    rho = np.array([s.rho for s in instance.sensors])
+    power = np.array([s.power_w for s in instance.sensors])
+    ages = np.arange(max_age + 1, dtype=float)
+    voi = physics.voi(ages[None, :, None], dist[:, None, :], rho[:, None, None], power[:, None, None], instance.channel)
+    voi_over_b = np.ascontiguousarray(voi / instance.channel.bandwidth_hz)
+
+    widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N
+    field_word, field_shift, word, used = [], [], 0, 0
+    for w in widths:
+        if used + w > 64:
+            word, used = word + 1, 0
+        field_word.append(word)
+        field_shift.append(used)
+        used += w
+    arrays = [initial_aoi, n_actions, action_upload, action_move, action_next, voi_over_b]
+    for a in arrays:
+        a.setflags(write=False)
+    return MDP(
+        instance, reward, float(penalty), int(lat.start), initial_aoi, n_actions, action_upload,
+        action_move, action_next, voi_over_b, np.array(field_word, dtype=np.int64),
+        np.array(field_shift, dtype=np.int64), np.array(widths, dtype=np.int64), word + 1,
+    )

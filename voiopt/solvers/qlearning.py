@@ -1,0 +1,434 @@
+"""The paper's Algorithm 1 (tabular Q-learning), compiled with numba, and its greedy rollout.
+
+The Q-table is an open-addressing hash table keyed by the packed state of models/mdp.py:
+each slot of ``table`` (power-of-two size, linear probing) holds the key words and 1 + the
+row where the state's Q-values (one per feasible action of its position) start in ``pool``,
+so a lookup touches one cache line for the key and one for the Q-values.
+Training runs in chunks of whole episodes; between chunks Python grows the arrays when
+needed (up to ``max_memory_mb``), updates the progress bar and checks the stop flag. Random
+numbers come from splitmix64, so a plain-Python Algorithm 1 can reproduce the run bit for bit
+(benchmarks/reference_qlearning.py).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numba as nb
+import numpy as np
+from rich.progress import TextColumn
+
+from voiopt.errors import OptionError
+from voiopt.instance import Instance
+from voiopt.interrupt import progress_bar, stop_on_interrupt
+from voiopt.models import mdp as mdp_mod
+from voiopt.result import Plan, Result
+from voiopt.simulate import check_objective, simulate_indices
+
+BETA, GAMMA, EPISODES = 0.75, 0.9, 1_000_000
+MAX_LOAD = 0.5  # hash slots at most half full
+_M64 = (1 << 64) - 1
+
+# ----------------------------------------------------------------------------- random numbers
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+_TWO_M53 = 1.0 / 9007199254740992.0
+
+
+@nb.njit(cache=True, inline="always")
+def _mix(z):
+    z = (z ^ (z >> _S30)) * _MIX1
+    z = (z ^ (z >> _S27)) * _MIX2
+    return z ^ (z >> _S31)
+
+
+@nb.njit(cache=True, inline="always")
+def _uniform(rng):
+    """Next double in [0, 1) from the splitmix64 state rng[0]."""
+    rng[0] += _GOLDEN
+    return float(_mix(rng[0]) >> _S11) * _TWO_M53
+
+
+def seed_state(seed: int) -> int:
+    """The splitmix64 state for a user seed (the seed itself, as an unsigned 64-bit word)."""
+    return int(seed) & _M64
+
+
+# ----------------------------------------------------------------------------- hash table
+
+
+@nb.njit(cache=True, inline="always")
+def _encode(p, aoi, qidx, field_word, field_shift, key):
+    key[:] = 0
+    key[field_word[0]] |= np.uint64(p) << np.uint64(field_shift[0])
+    for i in range(aoi.shape[0]):
+        f = 1 + 2 * i
+        key[field_word[f]] |= np.uint64(aoi[i]) << np.uint64(field_shift[f])
+        key[field_word[f + 1]] |= np.uint64(qidx[i]) << np.uint64(field_shift[f + 1])
+
+
+@nb.njit(cache=True, inline="always")
+def _hash(key):
+    h = np.uint64(0)
+    for w in range(key.shape[0]):
+        h = _mix(h ^ key[w])
+    return h
+
+
+@nb.njit(cache=True)
+def _find(key, table):
+    """(slot, Q row or -1): where the key is, or the empty slot where it would go.
+    A slot is its key words followed by 1 + its row in the Q pool (0 = empty)."""
+    mask = table.shape[0] - 1
+    W = key.shape[0]
+    s = np.int64(_hash(key) & np.uint64(mask))
+    while True:
+        tag = table[s, W]
+        if tag == 0:
+            return s, -1
+        same = True
+        for w in range(W):
+            if table[s, w] != key[w]:
+                same = False
+                break
+        if same:
+            return s, np.int64(tag) - 1
+        s = (s + 1) & mask
+
+
+@nb.njit(cache=True, inline="always")
+def _insert(table, s, key, pool, counts, n, q_init):
+    """Store key in empty slot s with n fresh Q-values; return its row."""
+    W = key.shape[0]
+    row = counts[1]
+    for w in range(W):
+        table[s, w] = key[w]
+    table[s, W] = np.uint64(row + 1)
+    pool[row:row + n] = q_init
+    counts[0] += 1
+    counts[1] += n
+    return row
+
+
+@nb.njit(cache=True)
+def _rehash(old, table):
+    W = table.shape[1] - 1
+    mask = table.shape[0] - 1
+    for o in range(old.shape[0]):
+        if old[o, W] == 0:
+            continue
+        s = np.int64(_hash(old[o, :W]) & np.uint64(mask))
+        while table[s, W] != 0:
+            s = (s + 1) & mask
+        table[s] = old[o]
+
+
+# ----------------------------------------------------------------------------- Algorithm 1
+
+
+@nb.njit(cache=True)
+def _train(
+    n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward,
+    start, initial_aoi, n_actions, action_upload, action_next, voi_over_b,
+    field_word, field_shift, table, pool, counts, rng,
+):
+    """Run up to n_episodes episodes; stop early (at an episode boundary) when the table could
+    overflow during the next one. counts = [entries, pool used]; eps[0] is updated in place.
+    Returns the number of episodes run."""
+    N = initial_aoi.shape[0]
+    K = action_upload.shape[1]
+    aoi = np.empty(N, np.int64)
+    qidx = np.empty(N, np.int64)
+    key = np.empty(table.shape[1] - 1, np.uint64)
+    bg = beta * gamma
+    for ep in range(n_episodes):
+        if (counts[0] + horizon + 1 > MAX_LOAD * table.shape[0]
+                or counts[1] + (horizon + 1) * K > pool.shape[0]):
+            return ep
+        p = start
+        aoi[:] = initial_aoi
+        qidx[:] = 0
+        _encode(p, aoi, qidx, field_word, field_shift, key)
+        s, row = _find(key, table)
+        if row < 0:
+            row = _insert(table, s, key, pool, counts, n_actions[p], q_init)
+        epsilon = eps[0]
+        for t in range(horizon):
+            na = n_actions[p]
+            x = _uniform(rng)
+            if x < epsilon:
+                k = int(_uniform(rng) * na)
+            else:
+                k = 0
+                best = pool[row]
+                for j in range(1, na):
+                    if pool[row + j] > best:
+                        best = pool[row + j]
+                        k = j
+            u = action_upload[p, k]
+            p_next = action_next[p, k]
+            for i in range(N):
+                aoi[i] += 1
+            if u >= 0:
+                aoi[u] = 1
+                qidx[u] = 1 + p
+            if aoi_reward:
+                worst = aoi[0]
+                for i in range(1, N):
+                    if aoi[i] > worst:
+                        worst = aoi[i]
+                r = -float(worst)
+            else:
+                r = voi_over_b[0, aoi[0], qidx[0]]
+                for i in range(1, N):
+                    v = voi_over_b[i, aoi[i], qidx[i]]
+                    if v < r:
+                        r = v
+            if u < 0:
+                r = r - penalty
+            _encode(p_next, aoi, qidx, field_word, field_shift, key)
+            s, next_row = _find(key, table)
+            nn = n_actions[p_next]
+            if next_row < 0 and t + 1 < horizon:  # s_T is never acted in: not stored
+                next_row = _insert(table, s, key, pool, counts, nn, q_init)
+            if next_row < 0:
+                future = q_init
+            else:
+                future = pool[next_row]
+                for j in range(1, nn):
+                    if pool[next_row + j] > future:
+                        future = pool[next_row + j]
+            pool[row + k] = (1.0 - beta) * pool[row + k] + beta * r + bg * future
+            p = p_next
+            row = next_row
+        eps[0] = eps[0] - eps0
+    return n_episodes
+
+
+@nb.njit(cache=True)
+def _rollout(horizon, start, initial_aoi, n_actions, action_upload, action_next,
+             field_word, field_shift, table, pool):
+    """The greedy plan of the table: first maximal action in each state (action 0 if unseen)."""
+    N = initial_aoi.shape[0]
+    aoi = initial_aoi.copy()
+    qidx = np.zeros(N, np.int64)
+    key = np.empty(table.shape[1] - 1, np.uint64)
+    idx = np.empty(horizon, np.int64)
+    sched = np.empty(horizon, np.int64)
+    p = start
+    for t in range(horizon):
+        _encode(p, aoi, qidx, field_word, field_shift, key)
+        _, row = _find(key, table)
+        k = 0
+        if row >= 0:
+            best = pool[row]
+            for j in range(1, n_actions[p]):
+                if pool[row + j] > best:
+                    best = pool[row + j]
+                    k = j
+        u = action_upload[p, k]
+        idx[t] = p
+        sched[t] = u
+        for i in range(N):
+            aoi[i] += 1
+        if u >= 0:
+            aoi[u] = 1
+            qidx[u] = 1 + p
+        p = action_next[p, k]
+    return idx, sched
+
+
+# ----------------------------------------------------------------------------- the table
+
+
+class QTable:
+    """The growable hash table and Q-value pool of one training run."""
+
+    def __init__(self, model: mdp_mod.MDP, q_init: float, max_memory_mb: float, slots: int = 1 << 15):
+        self.model = model
+        self.q_init = float(q_init)
+        self.max_bytes = max_memory_mb * 2**20
+        self.counts = np.zeros(2, np.int64)  # [states, Q-values used]
+        self.table = np.zeros((_pow2(slots), model.n_words + 1), np.uint64)
+        mean_actions = float(model.n_actions.mean())
+        self.pool = np.zeros(int(MAX_LOAD * len(self.table) * mean_actions) + self._margin(), np.float64)
+
+    def _margin(self) -> int:
+        return (self.model.horizon + 1) * self.model.max_actions
+
+    @property
+    def n_states(self) -> int:
+        return int(self.counts[0])
+
+    @property
+    def nbytes(self) -> int:
+        return self.table.nbytes + self.pool.nbytes
+
+    def grow(self) -> bool:
+        """Double whatever is short for one more episode; False if that passes the memory limit."""
+        m = self.model
+        slots = len(self.table)
+        if self.counts[0] + m.horizon + 1 > MAX_LOAD * slots:
+            slots *= 2
+        pool_len = len(self.pool)
+        while self.counts[1] + self._margin() > pool_len:
+            pool_len *= 2
+        new_bytes = (slots * self.table.shape[1] if slots != len(self.table) else 0) * 8
+        new_bytes += (pool_len if pool_len != len(self.pool) else 0) * 8
+        if self.nbytes + new_bytes > self.max_bytes:  # old and new arrays live together briefly
+            return False
+        if slots != len(self.table):
+            table = np.zeros((slots, self.table.shape[1]), np.uint64)
+            _rehash(self.table, table)
+            self.table = table
+        if pool_len != len(self.pool):
+            pool = np.zeros(pool_len, np.float64)
+            pool[: len(self.pool)] = self.pool
+            self.pool = pool
+        return True
+
+    def to_dict(self) -> dict[tuple, list[float]]:
+        """{state: Q-values of its feasible actions}, for tests and inspection."""
+        m = self.model
+        W = m.n_words
+        out = {}
+        for slot in self.table[self.table[:, W] != 0]:
+            state = m.decode(slot[:W])
+            r = int(slot[W]) - 1
+            out[state] = self.pool[r: r + int(m.n_actions[state[0]])].tolist()
+        return out
+
+
+def _pow2(x: int) -> int:
+    return 1 << max(4, (int(x) - 1).bit_length())
+
+
+def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, eps0: float,
+          beta: float, gamma: float, rng: np.ndarray) -> tuple[int, bool]:
+    """Run n_episodes of Algorithm 1, growing the table as needed.
+    Returns (episodes run, False if stopped by the memory limit)."""
+    done = 0
+    while done < n_episodes:
+        done += _train(
+            n_episodes - done, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
+            model.reward == "aoi", model.start, model.initial_aoi, model.n_actions,
+            model.action_upload, model.action_next, model.voi_over_b, model.field_word,
+            model.field_shift, table.table, table.pool, table.counts, rng,
+        )
+        if done < n_episodes and not table.grow():
+            return done, False
+    return done, True
+
+
+def rollout(model: mdp_mod.MDP, table: QTable) -> tuple[np.ndarray, np.ndarray]:
+    """(point indices, schedule with -1) of the greedy plan of the table."""
+    return _rollout(
+        model.horizon, model.start, model.initial_aoi, model.n_actions, model.action_upload,
+        model.action_next, model.field_word, model.field_shift, table.table, table.pool,
+    )
+
+
+# ----------------------------------------------------------------------------- the solvers
+
+
+def _check_options(episodes, seed, beta, gamma, q_init, penalty, time_limit, max_memory_mb):
+    def bad(name, value, rule):
+        raise OptionError(f"{name}: {rule}, got {value!r}")
+
+    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
+        bad("episodes", episodes, "must be an integer >= 1")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        bad("seed", seed, "must be an integer >= 0")
+    for name, v in (("beta", beta), ("gamma", gamma)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 1:
+            bad(name, v, "must be in (0, 1]")
+    for name, v in (("q_init", q_init), ("penalty", penalty)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            bad(name, v, "must be a finite number")
+    if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(time_limit, (int, float))
+                                   or not time_limit > 0):
+        bad("time_limit", time_limit, "must be a number of seconds > 0")
+    if isinstance(max_memory_mb, bool) or not isinstance(max_memory_mb, (int, float)) or not max_memory_mb >= 1:
+        bad("max_memory_mb", max_memory_mb, "must be a number of MiB >= 1")
+
+
+def _run(instance: Instance, objective: str, reward: str, method: str, *, progress: bool,
+         episodes: int, seed: int, beta: float, gamma: float, q_init: float, penalty: float,
+         time_limit: float | None, max_memory_mb: float) -> Result:
+    check_objective(objective)
+    _check_options(episodes, seed, beta, gamma, q_init, penalty, time_limit, max_memory_mb)
+    t0 = time.perf_counter()
+    model = mdp_mod.build(instance, reward, penalty)
+    table = QTable(model, q_init, max_memory_mb)
+    eps = np.array([1.0])
+    eps0 = 1.0 / episodes
+    rng = np.array([seed_state(seed)], dtype=np.uint64)
+    sense_max = objective in ("min-voi", "mean-min-voi")
+    best_value = None
+    stopped = None
+    done, chunk = 0, 2000
+    columns = (TextColumn("eps {task.fields[eps]:.3f}"), TextColumn("best {task.fields[best]}"),
+               TextColumn("states {task.fields[states]}"))
+    with stop_on_interrupt() as flag, progress_bar(progress, *columns) as bar:
+        task = bar.add_task(method, total=episodes, eps=1.0, best="-", states=0)
+        while done < episodes:
+            n = min(chunk, episodes - done)
+            c0 = time.perf_counter()
+            ran, fits = train(model, table, n, eps, eps0, beta, gamma, rng)
+            done += ran
+            elapsed = time.perf_counter() - c0
+            chunk = int(min(max(chunk * min(4.0, 0.25 / max(elapsed, 1e-3)), 100), 200_000))
+            idx, sched = rollout(model, table)
+            value = simulate_indices(instance, idx, sched).metrics[objective]
+            if best_value is None or (value > best_value if sense_max else value < best_value):
+                best_value = value
+            bar.update(task, completed=done, eps=max(float(eps[0]), 0.0), best=f"{best_value:.6g}",
+                       states=table.n_states)
+            if not fits:
+                stopped = (f"Q-table memory limit of {max_memory_mb:g} MiB reached after {done} episodes "
+                           f"({table.n_states} states); raise max_memory_mb or lower episodes")
+            elif flag.requested:
+                stopped = f"interrupted after {done} of {episodes} episodes"
+            elif time_limit is not None and time.perf_counter() - t0 > time_limit:
+                stopped = f"time limit of {time_limit:g} s reached after {done} of {episodes} episodes"
+            if stopped:
+                if progress:
+                    bar.console.print(f"[yellow]{method}: {stopped}; returning the greedy plan so far")
+                break
+    idx, sched = rollout(model, table)
+    solver = {
+        "reward": reward, "episodes": episodes, "episodes_run": done, "seed": seed, "beta": beta,
+        "gamma": gamma, "epsilon0": eps0, "q_init": q_init, "penalty": penalty,
+        "table_states": table.n_states, "table_mib": round(table.nbytes / 2**20, 3),
+        "best_greedy_value_seen": best_value,
+    }
+    if stopped:
+        solver["stopped"] = stopped
+    return Result.from_plan(
+        instance, method, objective, Plan.from_indices(instance, idx, sched),
+        status="time_limit" if stopped else "feasible", runtime_s=time.perf_counter() - t0, solver=solver,
+    )
+
+
+def solve(instance: Instance, objective: str = "mean-min-voi", *, progress: bool = False,
+          episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
+          q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY, time_limit: float | None = None,
+          max_memory_mb: float = 1536) -> Result:
+    """The paper's "VoI-optimal" scheme: Algorithm 1 with reward min_i V_i/B - idle penalty."""
+    return _run(instance, objective, "voi", "qlearning", progress=progress, episodes=episodes,
+                seed=seed, beta=beta, gamma=gamma, q_init=q_init, penalty=penalty,
+                time_limit=time_limit, max_memory_mb=max_memory_mb)
+
+
+def solve_aoi(instance: Instance, objective: str = "mean-max-aoi", *, progress: bool = False,
+              episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
+              q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY,
+              time_limit: float | None = None, max_memory_mb: float = 1536) -> Result:
+    """The paper's "AoI-optimal" scheme: Algorithm 1 with reward -max_i A_i - idle penalty."""
+    return _run(instance, objective, "aoi", "aoi-qlearning", progress=progress, episodes=episodes,
+                seed=seed, beta=beta, gamma=gamma, q_init=q_init, penalty=penalty,
+                time_limit=time_limit, max_memory_mb=max_memory_mb)
