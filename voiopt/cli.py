@@ -131,6 +131,43 @@ def cmd_export(args) -> int:
     return 0
 
 
+def cmd_gap_report(args) -> int:
+    from voiopt.report import gap_report, summarise, summary_markdown
+
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    rows = gap_report(
+        args.instances, methods, args.objective, args.output, time_limit=args.time_limit,
+        episodes=args.episodes, seed=args.seed, workers=args.workers,
+        dask_scheduler=args.dask_scheduler, progress=not args.quiet,
+    )
+    if not args.quiet:
+        n = len({r["instance"] for r in rows})
+        out.print(summary_markdown(summarise(rows, methods), args.objective, n).split("![")[0].rstrip(), markup=False)
+        out.print(f"written: {args.output}/gaps.csv, summary.md, gaps.png, results/", markup=False)
+    return 0
+
+
+def cmd_figures(args) -> int:
+    from voiopt.figures import make_figures
+
+    files = make_figures(
+        args.out, networks=args.networks, episodes=args.episodes, time_limit=args.time_limit,
+        seed=args.seed, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
+    )
+    if not args.quiet:
+        out.print("\n".join(str(f) for f in files), markup=False)
+    return 0
+
+
+def cmd_plot(args) -> int:
+    from voiopt.figures import load_instance_for, plot_result
+
+    result = voiopt.load_result(args.result)
+    plot_result(result, load_instance_for(result, args.instance), args.output)
+    out.print(f"wrote {args.output}", markup=False)
+    return 0
+
+
 def cmd_demo(args) -> int:
     from voiopt.demo import run_demo
 
@@ -138,6 +175,12 @@ def cmd_demo(args) -> int:
 
 
 # ---------------------------------------------------------------------------------- parser
+
+
+def _add_executor_options(s: argparse.ArgumentParser) -> None:
+    s.add_argument("--workers", type=int, default=1, metavar="K", help="parallel processes (default 1)")
+    s.add_argument("--dask-scheduler", default=None, metavar="ADDRESS",
+                   help="tcp://HOST:PORT of a Dask cluster, or 'local' for a LocalCluster (needs voiopt[dask])")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -191,6 +234,34 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("model", metavar="MODEL", help="output file, .mps or .lp")
     s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
     s.set_defaults(func=cmd_export)
+
+    s = sub.add_parser("gap-report", help="proven optimality gaps of several methods over many networks")
+    s.add_argument("instances", nargs="+", metavar="INSTANCES", help="instance files or folders of them")
+    s.add_argument("--methods", default="dp,qlearning,aoi-qlearning,shortest-path", help="comma-separated")
+    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
+    s.add_argument("--time-limit", type=float, default=None, metavar="S", help="per pair")
+    s.add_argument("--episodes", type=int, default=None, metavar="N")
+    s.add_argument("--seed", type=int, default=None, metavar="S")
+    _add_executor_options(s)
+    s.add_argument("-o", "--output", required=True, metavar="DIR")
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_gap_report)
+
+    s = sub.add_parser("figures", help="reproduce the paper's figures with the proven optimum")
+    s.add_argument("--out", required=True, metavar="DIR")
+    s.add_argument("--networks", type=int, default=40, help="networks per setting (default 40)")
+    s.add_argument("--episodes", type=int, default=None, metavar="N", help="Q-learning episodes (default 1e6)")
+    s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="dp limit per network (default 60)")
+    s.add_argument("--seed", type=int, default=0)
+    _add_executor_options(s)
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_figures)
+
+    s = sub.add_parser("plot", help="draw the trajectory of a result")
+    s.add_argument("result", metavar="RESULT")
+    s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: instances/NAME.json")
+    s.add_argument("-o", "--output", required=True, metavar="PNG")
+    s.set_defaults(func=cmd_plot)
 
     s = sub.add_parser("methods", help="list the solution methods")
     s.set_defaults(func=lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])

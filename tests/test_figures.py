@@ -1,0 +1,39 @@
+"""Figures and trajectory plots (smoke: files exist and hold the numbers plotted)."""
+
+from __future__ import annotations
+
+import csv
+
+import voiopt
+from voiopt.cli import main
+from voiopt.figures import SCHEMES, SWEEPS
+
+
+def test_plot_a_result(tmp_path, capsys, case_study):
+    result = voiopt.solve(case_study, method="greedy", objective="mean-min-voi")
+    result.save(tmp_path / "r.json")
+    png = tmp_path / "r.png"
+    assert main(["plot", str(tmp_path / "r.json"), "--instance", "instances/case-study.json", "-o", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    other = voiopt.generate(2, 5, seed=1)
+    voiopt.save(other, tmp_path / "other.json")
+    assert main(["plot", str(tmp_path / "r.json"), "--instance", str(tmp_path / "other.json"), "-o", str(png)]) == 2
+    assert "the result is for 'case-study'" in capsys.readouterr().err
+
+
+def test_figures_smoke(tmp_path):
+    out = tmp_path / "figs"
+    assert main(["figures", "--out", str(out), "--networks", "2", "--episodes", "2000", "--time-limit", "5", "--quiet"]) == 0
+    for name in ["fig3_case_study", "fig4_voi_over_time", *(s.key for s in SWEEPS)]:
+        assert (out / f"{name}.png").stat().st_size > 5000, name
+        assert (out / f"{name}.csv").is_file(), name
+    for sweep in SWEEPS:
+        with open(out / f"{sweep.key}.csv") as f:
+            header = [line for line in f if line.startswith("#")]
+            f.seek(0)
+            rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
+        assert any("sweep values" in h for h in header)
+        assert len(rows) == len(sweep.values) * len(SCHEMES)
+        assert all(int(r["networks"]) == 2 and r["mean"] for r in rows)
+    md = (out / "figures.md").read_text()
+    assert "fig7_nodes.png" in md and "proven optimum" in md

@@ -1,0 +1,138 @@
+"""Gap reports: the table, resume, failures, and the Dask path."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+
+import voiopt
+from voiopt import report
+from voiopt.cli import main
+from voiopt.generate import generate_set, write_set
+
+
+@pytest.fixture(scope="module")
+def nets(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("nets")
+    write_set(generate_set(3, seed=21, n_sensors=2, horizon=6, width=2, height=2, rho=(0.2, 0.9)), folder)
+    return folder
+
+
+def read_rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.mark.parametrize("objective", ["mean-min-voi", "max-aoi"])
+def test_gap_table_matches_result_files(tmp_path, nets, objective):
+    methods = ["dp", "milp", "greedy", "shortest-path"]
+    report.gap_report([nets], methods, objective, tmp_path)
+    rows = read_rows(tmp_path / "gaps.csv")
+    assert len(rows) == 3 * len(methods)
+    assert list(rows[0]) == report.GAP_COLUMNS
+    maximise = voiopt.OBJECTIVES[objective] == "max"
+    for row in rows:
+        r = voiopt.load_result(tmp_path / "results" / f"{row['instance']}__{row['method']}.json")
+        assert (row["status"], float(row["value"])) == (r.status, r.value)
+        same = [x for x in rows if x["instance"] == row["instance"]]
+        values = [float(x["value"]) for x in same]
+        assert float(row["best_value"]) == (max(values) if maximise else min(values))
+        best_bound = float(row["best_bound"])
+        if row["method"] in ("dp", "milp"):
+            assert row["status"] == "optimal"
+            assert float(row["gap"]) == pytest.approx(0, abs=1e-9)
+        else:
+            v = float(row["value"])
+            expected = (best_bound - v) / best_bound if maximise else (v - best_bound) / best_bound
+            assert float(row["gap"]) == pytest.approx(expected, rel=1e-12, abs=1e-15)
+    summary = (tmp_path / "summary.md").read_text()
+    assert "| dp | 3 | 3 | 0 |" in summary
+    assert (tmp_path / "gaps.png").stat().st_size > 1000
+
+
+def test_resume_after_interrupt_redoes_nothing(tmp_path, nets, monkeypatch):
+    real = report.solver_function
+    calls = []
+
+    def flaky(method):
+        fn = real(method)
+
+        def wrapped(inst, objective, **kw):
+            calls.append((inst.name, method))
+            if len(calls) == 4:
+                raise KeyboardInterrupt
+            return fn(inst, objective, **kw)
+
+        return wrapped
+
+    monkeypatch.setattr(report, "solver_function", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        report.gap_report([nets], ["greedy", "shortest-path"], "mean-min-voi", tmp_path)
+    done = sorted((tmp_path / "results").glob("*.json"))
+    assert len(done) == 3, "the three finished pairs are on disk"
+    before = {p.name: p.stat().st_mtime_ns for p in done}
+    calls.clear()
+    monkeypatch.setattr(report, "solver_function", real)
+    report.gap_report([nets], ["greedy", "shortest-path"], "mean-min-voi", tmp_path)
+    after = sorted((tmp_path / "results").glob("*.json"))
+    assert len(after) == 6
+    assert all(p.stat().st_mtime_ns == before[p.name] for p in after if p.name in before)
+    assert len(read_rows(tmp_path / "gaps.csv")) == 6
+
+
+def test_a_failing_pair_is_recorded_and_the_sweep_goes_on(tmp_path, nets, monkeypatch):
+    real = report.solver_function
+
+    def broken(method):
+        if method == "greedy":
+            def fail(inst, objective, **kw):
+                raise ValueError("solver exploded")
+            return fail
+        return real(method)
+
+    monkeypatch.setattr(report, "solver_function", broken)
+    rows = report.gap_report([nets], ["greedy", "shortest-path"], "mean-min-voi", tmp_path)
+    errors = [r for r in rows if r["status"] == "error"]
+    assert len(errors) == 3 and all(r["method"] == "greedy" and r["value"] is None for r in errors)
+    r = voiopt.load_result(tmp_path / "results" / f"{errors[0]['instance']}__greedy.json")
+    assert r.solver["error"] == "ValueError: solver exploded"
+    assert sum(r["status"] == "feasible" for r in rows) == 3
+    assert "| greedy | 3 | 0 | 3 |" in (tmp_path / "summary.md").read_text()
+
+
+def _comparable(path):
+    return [{k: v for k, v in row.items() if k != "runtime_s"} for row in read_rows(path)]
+
+
+def _plans(folder):
+    return {p.name: json.loads(p.read_text())["plan"] for p in sorted((folder / "results").glob("*.json"))}
+
+
+def test_dask_local_cluster_matches_process_pool(tmp_path, nets):
+    methods = ["dp", "greedy"]
+    report.gap_report([nets], methods, "mean-min-voi", tmp_path / "pool", workers=2)
+    report.gap_report([nets], methods, "mean-min-voi", tmp_path / "dask", workers=1, dask_scheduler="local")
+    assert _comparable(tmp_path / "pool" / "gaps.csv") == _comparable(tmp_path / "dask" / "gaps.csv")
+    assert _plans(tmp_path / "pool") == _plans(tmp_path / "dask")
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["--methods", "dp,nope"], "--methods: unknown method 'nope'"),
+        (["--methods", "dp,dp"], "--methods: a method is repeated"),
+        (["--workers", "0", "--methods", "greedy"], "--workers: must be >= 1"),
+        (["--time-limit", "-2"], "--time-limit: must be > 0 seconds"),
+    ],
+)
+def test_bad_options_exit_2(capsys, tmp_path, nets, argv, message):
+    code = main(["gap-report", str(nets), "-o", str(tmp_path), "--quiet", *argv])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+
+
+def test_missing_instances_exit_2(capsys, tmp_path):
+    code = main(["gap-report", str(tmp_path / "none"), "-o", str(tmp_path), "--quiet"])
+    assert code == 2 and "no such file or folder" in capsys.readouterr().err
