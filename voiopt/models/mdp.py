@@ -2,8 +2,10 @@
 
 State s_t = (p(t), A(t), q(t)). Effective distances come from a finite set, so q_i is kept as
 an index: 0 is sensor i's initial distance q_i(0), 1 + p is its distance from lattice point p.
-Ages are at most A_i(0) + T. A state packs exactly into a few 64-bit words (no field straddles
-a word), which is the key of the compiled Q-table.
+Ages are at most A_i(0) + T. States are tuples (p, A, q, slot) where slot is always 0 in the
+paper's MDP; with ``slot_in_state`` it is t, which makes the finite horizon exact (an option
+beyond the paper). A state packs exactly into a few 64-bit words (no field straddles a word),
+which is the key of the compiled Q-table.
 
 Actions available at point p are numbered 0 .. n_actions[p]-1, uploads outer (none first, then
 the in-range sensors ascending) and moves inner (stay, N, S, E, W, skipping those that leave
@@ -31,6 +33,7 @@ class MDP:
     instance: Instance
     reward: str  # "voi" or "aoi"
     penalty: float
+    slot_in_state: bool  # beyond the paper: the slot t is part of the state
     start: int  # lattice index of p(0)
     initial_aoi: np.ndarray  # (N,) A_i(0)
     n_actions: np.ndarray  # (n,) feasible actions at each point
@@ -38,9 +41,9 @@ class MDP:
     action_move: np.ndarray  # (n, K) move index 0..4 (stay, N, S, E, W)
     action_next: np.ndarray  # (n, K) p(t+1)
     voi_over_b: np.ndarray  # (N, max_age + 1, n + 1) V_i / B for age a and distance index
-    field_word: np.ndarray  # (1 + 2N,) word of each packed field: p, then A_i, q_i per sensor
-    field_shift: np.ndarray  # (1 + 2N,) bit offset of each field in its word
-    field_width: np.ndarray  # (1 + 2N,) bits of each field
+    field_word: np.ndarray  # (2 + 2N,) word of each packed field: p, A_i and q_i per sensor, slot
+    field_shift: np.ndarray  # (2 + 2N,) bit offset of each field in its word
+    field_width: np.ndarray  # (2 + 2N,) bits of each field
     n_words: int
 
     @property
@@ -55,9 +58,9 @@ class MDP:
     def max_actions(self) -> int:
         return self.action_upload.shape[1]
 
-    def initial_state(self) -> tuple[int, tuple[int, ...], tuple[int, ...]]:
-        """s_0 = (start, A(0), q(0)) with every q_i at index 0 (its initial distance)."""
-        return self.start, tuple(int(a) for a in self.initial_aoi), (0,) * self.n_sensors
+    def initial_state(self) -> tuple[int, tuple[int, ...], tuple[int, ...], int]:
+        """s_0 = (start, A(0), q(0), 0) with every q_i at index 0 (its initial distance)."""
+        return self.start, tuple(int(a) for a in self.initial_aoi), (0,) * self.n_sensors, 0
 
     def actions(self, p: int) -> list[tuple[int, int]]:
         """The feasible actions at p as (upload or -1, move index), in action-number order."""
@@ -73,11 +76,12 @@ class MDP:
 
     def step(self, state, k: int):
         """(next state, reward) after action number k; plain Python, for the env and tests."""
-        p, aoi, qidx = state
+        p, aoi, qidx, slot = state
         u = int(self.action_upload[p, k])
         aoi = tuple(1 if i == u else a + 1 for i, a in enumerate(aoi))
         qidx = tuple(1 + p if i == u else q for i, q in enumerate(qidx))
-        return (int(self.action_next[p, k]), aoi, qidx), self.reward_of(aoi, qidx, u)
+        slot = slot + 1 if self.slot_in_state else 0
+        return (int(self.action_next[p, k]), aoi, qidx, slot), self.reward_of(aoi, qidx, u)
 
     def reward_of(self, aoi, qidx, upload: int) -> float:
         """r_{t+1} of MODEL.md section 7 for the next state's ages and distance indices."""
@@ -88,30 +92,31 @@ class MDP:
 
     def encode(self, state) -> np.ndarray:
         """The packed key of a state: n_words uint64 words."""
-        p, aoi, qidx = state
+        p, aoi, qidx, slot = state
         words = [0] * self.n_words
         values = [p]
         for a, q in zip(aoi, qidx, strict=True):
             values += [a, q]
+        values.append(slot)
         for f, v in enumerate(values):
             words[self.field_word[f]] |= int(v) << int(self.field_shift[f])
         return np.array(words, dtype=np.uint64)
 
-    def decode(self, words) -> tuple[int, tuple[int, ...], tuple[int, ...]]:
+    def decode(self, words) -> tuple[int, tuple[int, ...], tuple[int, ...], int]:
         """The state of a packed key (inverse of ``encode``)."""
         values = [
             (int(words[w]) >> int(s)) & ((1 << int(b)) - 1)
             for w, s, b in zip(self.field_word, self.field_shift, self.field_width, strict=True)
         ]
-        p = values[0]
-        return p, tuple(values[1::2]), tuple(values[2::2])
+        return values[0], tuple(values[1:-1:2]), tuple(values[2:-1:2]), values[-1]
 
 
 def _bits(max_value: int) -> int:
     return max(1, int(max_value).bit_length())
 
 
-def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY) -> MDP:
+def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY,
+          slot_in_state: bool = False) -> MDP:
     """The arrays of the MDP of ``instance`` with the VoI or AoI reward."""
     if reward not in REWARDS:
         raise OptionError(f"reward: must be 'voi' or 'aoi', got {reward!r}")
@@ -144,7 +149,7 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
     voi = physics.voi(ages[None, :, None], dist[:, None, :], rho[:, None, None], power[:, None, None], instance.channel)
     voi_over_b = np.ascontiguousarray(voi / instance.channel.bandwidth_hz)
 
-    widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N
+    widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N + [_bits(T)]
     field_word, field_shift, word, used = [], [], 0, 0
     for w in widths:
         if used + w > 64:
@@ -156,7 +161,7 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
     for a in arrays:
         a.setflags(write=False)
     return MDP(
-        instance, reward, float(penalty), int(lat.start), initial_aoi, n_actions, action_upload,
+        instance, reward, float(penalty), bool(slot_in_state), int(lat.start), initial_aoi, n_actions, action_upload,
         action_move, action_next, voi_over_b, np.array(field_word, dtype=np.int64),
         np.array(field_shift, dtype=np.int64), np.array(widths, dtype=np.int64), word + 1,
     )

@@ -62,13 +62,15 @@ def seed_state(seed: int) -> int:
 
 
 @nb.njit(cache=True, inline="always")
-def _encode(p, aoi, qidx, field_word, field_shift, key):
+def _encode(p, aoi, qidx, slot, field_word, field_shift, key):
     key[:] = 0
     key[field_word[0]] |= np.uint64(p) << np.uint64(field_shift[0])
-    for i in range(aoi.shape[0]):
+    N = aoi.shape[0]
+    for i in range(N):
         f = 1 + 2 * i
         key[field_word[f]] |= np.uint64(aoi[i]) << np.uint64(field_shift[f])
         key[field_word[f + 1]] |= np.uint64(qidx[i]) << np.uint64(field_shift[f + 1])
+    key[field_word[2 * N + 1]] |= np.uint64(slot) << np.uint64(field_shift[2 * N + 1])
 
 
 @nb.njit(cache=True, inline="always")
@@ -132,7 +134,7 @@ def _rehash(old, table):
 
 @nb.njit(cache=True)
 def _train(
-    n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward,
+    n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
     start, initial_aoi, n_actions, action_upload, action_next, voi_over_b,
     field_word, field_shift, table, pool, counts, rng,
 ):
@@ -152,7 +154,7 @@ def _train(
         p = start
         aoi[:] = initial_aoi
         qidx[:] = 0
-        _encode(p, aoi, qidx, field_word, field_shift, key)
+        _encode(p, aoi, qidx, 0, field_word, field_shift, key)
         s, row = _find(key, table)
         if row < 0:
             row = _insert(table, s, key, pool, counts, n_actions[p], q_init)
@@ -190,7 +192,7 @@ def _train(
                         r = v
             if u < 0:
                 r = r - penalty
-            _encode(p_next, aoi, qidx, field_word, field_shift, key)
+            _encode(p_next, aoi, qidx, (t + 1) * slot_in_state, field_word, field_shift, key)
             s, next_row = _find(key, table)
             nn = n_actions[p_next]
             if next_row < 0 and t + 1 < horizon:  # s_T is never acted in: not stored
@@ -210,7 +212,7 @@ def _train(
 
 
 @nb.njit(cache=True)
-def _rollout(horizon, start, initial_aoi, n_actions, action_upload, action_next,
+def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_upload, action_next,
              field_word, field_shift, table, pool):
     """The greedy plan of the table: first maximal action in each state (action 0 if unseen)."""
     N = initial_aoi.shape[0]
@@ -221,7 +223,7 @@ def _rollout(horizon, start, initial_aoi, n_actions, action_upload, action_next,
     sched = np.empty(horizon, np.int64)
     p = start
     for t in range(horizon):
-        _encode(p, aoi, qidx, field_word, field_shift, key)
+        _encode(p, aoi, qidx, t * slot_in_state, field_word, field_shift, key)
         _, row = _find(key, table)
         k = 0
         if row >= 0:
@@ -315,7 +317,7 @@ def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, e
     while done < n_episodes:
         done += _train(
             n_episodes - done, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
-            model.reward == "aoi", model.start, model.initial_aoi, model.n_actions,
+            model.reward == "aoi", int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
             model.action_upload, model.action_next, model.voi_over_b, model.field_word,
             model.field_shift, table.table, table.pool, table.counts, rng,
         )
@@ -327,7 +329,7 @@ def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, e
 def rollout(model: mdp_mod.MDP, table: QTable) -> tuple[np.ndarray, np.ndarray]:
     """(point indices, schedule with -1) of the greedy plan of the table."""
     return _rollout(
-        model.horizon, model.start, model.initial_aoi, model.n_actions, model.action_upload,
+        model.horizon, int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions, model.action_upload,
         model.action_next, model.field_word, model.field_shift, table.table, table.pool,
     )
 
@@ -358,11 +360,13 @@ def _check_options(episodes, seed, beta, gamma, q_init, penalty, time_limit, max
 
 def _run(instance: Instance, objective: str, reward: str, method: str, *, progress: bool,
          episodes: int, seed: int, beta: float, gamma: float, q_init: float, penalty: float,
-         time_limit: float | None, max_memory_mb: float) -> Result:
+         time_limit: float | None, max_memory_mb: float, slot_in_state: bool) -> Result:
     check_objective(objective)
     _check_options(episodes, seed, beta, gamma, q_init, penalty, time_limit, max_memory_mb)
     t0 = time.perf_counter()
-    model = mdp_mod.build(instance, reward, penalty)
+    if not isinstance(slot_in_state, bool):
+        raise OptionError(f"slot_in_state: must be true or false, got {slot_in_state!r}")
+    model = mdp_mod.build(instance, reward, penalty, slot_in_state)
     table = QTable(model, q_init, max_memory_mb)
     eps = np.array([1.0])
     eps0 = 1.0 / episodes
@@ -403,6 +407,7 @@ def _run(instance: Instance, objective: str, reward: str, method: str, *, progre
     solver = {
         "reward": reward, "episodes": episodes, "episodes_run": done, "seed": seed, "beta": beta,
         "gamma": gamma, "epsilon0": eps0, "q_init": q_init, "penalty": penalty,
+        "slot_in_state": slot_in_state,
         "table_states": table.n_states, "table_mib": round(table.nbytes / 2**20, 3),
         "best_greedy_value_seen": best_value,
     }
@@ -417,18 +422,22 @@ def _run(instance: Instance, objective: str, reward: str, method: str, *, progre
 def solve(instance: Instance, objective: str = "mean-min-voi", *, progress: bool = False,
           episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
           q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY, time_limit: float | None = None,
-          max_memory_mb: float = 1536) -> Result:
-    """The paper's "VoI-optimal" scheme: Algorithm 1 with reward min_i V_i/B - idle penalty."""
+          max_memory_mb: float = 1536, slot_in_state: bool = False) -> Result:
+    """The paper's "VoI-optimal" scheme: Algorithm 1 with reward min_i V_i/B - idle penalty.
+
+    Options default to the paper's values. ``slot_in_state=True`` (not the paper's) adds t to
+    the state; with gamma=1 and penalty=0 Q-learning then targets exactly T * mean-min-voi / B."""
     return _run(instance, objective, "voi", "qlearning", progress=progress, episodes=episodes,
                 seed=seed, beta=beta, gamma=gamma, q_init=q_init, penalty=penalty,
-                time_limit=time_limit, max_memory_mb=max_memory_mb)
+                time_limit=time_limit, max_memory_mb=max_memory_mb, slot_in_state=slot_in_state)
 
 
 def solve_aoi(instance: Instance, objective: str = "mean-max-aoi", *, progress: bool = False,
               episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
               q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY,
-              time_limit: float | None = None, max_memory_mb: float = 1536) -> Result:
+              time_limit: float | None = None, max_memory_mb: float = 1536,
+              slot_in_state: bool = False) -> Result:
     """The paper's "AoI-optimal" scheme: Algorithm 1 with reward -max_i A_i - idle penalty."""
     return _run(instance, objective, "aoi", "aoi-qlearning", progress=progress, episodes=episodes,
                 seed=seed, beta=beta, gamma=gamma, q_init=q_init, penalty=penalty,
-                time_limit=time_limit, max_memory_mb=max_memory_mb)
+                time_limit=time_limit, max_memory_mb=max_memory_mb, slot_in_state=slot_in_state)
