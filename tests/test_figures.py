@@ -23,7 +23,7 @@ def test_plot_a_result(tmp_path, capsys, case_study):
 
 def test_figures_smoke(tmp_path):
     out = tmp_path / "figs"
-    assert main(["figures", "--out", str(out), "--networks", "2", "--episodes", "2000", "--time-limit", "5", "--quiet"]) == 0
+    assert main(["figures", "--out", str(out), "--networks", "2", "--episodes", "2000", "--time-limit", "1", "--quiet"]) == 0
     for name in ["fig3_case_study", "fig4_voi_over_time", *(s.key for s in SWEEPS)]:
         assert (out / f"{name}.png").stat().st_size > 5000, name
         assert (out / f"{name}.csv").is_file(), name

@@ -167,7 +167,9 @@ def _plot_sweep(sweep: Sweep, rows: list[dict[str, Any]], path: Path) -> None:
         mine = [r for r in rows if r["method"] == m and r["mean"] is not None]
         xs = [r["x"] for r in mine]
         ys = [r["mean"] for r in mine]
-        ax.errorbar(xs, ys, yerr=[r["ci95"] for r in mine], label=label, color=COLOURS[m], marker="o", ms=4, capsize=3,
+        ci = [r["ci95"] or 0.0 for r in mine]
+        lower = [min(c, 0.9 * y) for c, y in zip(ci, ys, strict=True)]  # a log axis has no room below 0
+        ax.errorbar(xs, ys, yerr=[lower, ci], label=label, color=COLOURS[m], marker="o", ms=4, capsize=3,
                     ls="--" if m == "dp" else "-")
         if m == "dp":
             uncertified = [r for r in mine if r["certified"] is not None and r["certified"] < r["networks"] and r["mean_bound"] is not None]
@@ -178,7 +180,7 @@ def _plot_sweep(sweep: Sweep, rows: list[dict[str, Any]], path: Path) -> None:
         ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(sweep.x_label)
-    ax.set_ylabel("time-average minimum VoI (bit/s)")
+    ax.set_ylabel("time-average minimum VoI (bit/s)\nmean, 95 % CI (lower bar clipped at 10 % of the mean)", fontsize=8)
     ax.set_title(sweep.title, fontsize=8)
     ax.legend(fontsize=7)
     save_figure(fig, path)
