@@ -1,0 +1,318 @@
+"""The exact solver: the time-expanded MILP of voiopt.models.milp on HiGHS (highspy).
+
+- ``min-voi`` and ``max-aoi``: bisection over the sorted finite set of candidate worths; each
+  step is a pure 0-1 covering problem, so no VoI value is ever compared inside the LP. The
+  bound is the largest candidate not proven infeasible.
+- ``mean-min-voi`` and ``mean-max-aoi``: one MILP with per-slot z_t, scaled by the warm start's
+  value, mip_rel_gap 0 by default. HiGHS's dual bound is widened by a safety margin for its
+  tolerances, and an "optimal" whose simulated value falls short of the bound by more than
+  5e-7 relative is re-checked with a cutoff row "objective >= value (1 + 5e-7)".
+
+Every plan is re-simulated; the result's value is the simulator's. A time limit or Ctrl-C
+returns the best plan found (at worst the warm start) with the proven bound.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from voiopt import lattice as lattice_mod
+from voiopt.errors import OptionError
+from voiopt.instance import Instance
+from voiopt.interrupt import StopFlag, stop_on_interrupt
+from voiopt.models import milp as model_mod
+from voiopt.result import Plan, Result
+from voiopt.simulate import better, check_objective, check_plan, simulate_indices
+
+METHOD = "milp"
+PATCH_RTOL = 5e-7  # an "optimal" must be met to this relative gap (half of Result's 1e-6)
+BOUND_RTOL = 1e-9  # safety margin added to HiGHS's dual bound for its tolerances
+TOLERANCES = {
+    "mip_feasibility_tolerance": 1e-9,
+    "primal_feasibility_tolerance": 1e-9,
+    "dual_feasibility_tolerance": 1e-9,
+    "mip_abs_gap": 1e-10,
+}
+
+
+def solve(
+    instance: Instance,
+    objective: str = "mean-min-voi",
+    *,
+    progress: bool = False,
+    time_limit: float | None = None,
+    gap: float | None = None,
+    threads: int | None = None,
+    warm_start: Plan | None = None,
+) -> Result:
+    """Solve ``instance`` exactly for ``objective`` (within ``time_limit`` seconds, if given)."""
+    check_objective(objective)
+    if time_limit is not None and not time_limit > 0:
+        raise OptionError(f"--time-limit: must be > 0 seconds, got {time_limit:g}")
+    if gap is not None and not gap >= 0:
+        raise OptionError(f"--gap: must be >= 0, got {gap:g}")
+    if threads is not None and threads < 1:
+        raise OptionError(f"--threads: must be >= 1, got {threads}")
+    t0 = time.perf_counter()
+    deadline = None if time_limit is None else t0 + time_limit
+    run = _Run(instance, objective, progress, deadline, gap, threads)
+    run.offer_plan(*_warm_plan(instance, objective, warm_start), source="warm start")
+    with stop_on_interrupt() as stop:
+        run.stop = stop
+        if objective in model_mod.PER_SLOT_OBJECTIVES:
+            status, bound = run.solve_mean()
+        else:
+            status, bound = run.solve_bisection()
+    idx, sched = run.best_plan
+    plan = Plan.from_indices(instance, idx, sched)
+    run.details["runtime_s"] = time.perf_counter() - t0
+    if stop.requested:
+        run.details["stopped"] = stop.reason
+    return Result.from_plan(
+        instance, METHOD, objective, plan, status=status, bound=bound,
+        runtime_s=time.perf_counter() - t0, solver=run.details,
+    )
+
+
+def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None) -> tuple[np.ndarray, np.ndarray]:
+    """The given plan, else the greedy baseline's, else "stay at the start, upload nothing"."""
+    if warm_start is not None:
+        return check_plan(instance, warm_start)  # PlanError (exit 2) if it does not fit
+    try:
+        from voiopt.solvers.baselines import greedy
+
+        plan = greedy(instance, objective).plan
+        if plan is not None:
+            return check_plan(instance, plan)
+    except ImportError:
+        pass
+    lat = lattice_mod.build(instance)
+    T = instance.horizon
+    return np.full(T, lat.start, dtype=np.int64), np.full(T, -1, dtype=np.int64)
+
+
+class _Run:
+    """State of one solve: the incumbent plan, the clock, the HiGHS options and the details."""
+
+    def __init__(self, instance, objective, progress, deadline, gap, threads) -> None:
+        self.instance = instance
+        self.objective = objective
+        self.kind = model_mod.worth_kind(objective)
+        self.progress = progress
+        self.deadline = deadline
+        self.gap = 0.0 if gap is None else float(gap)
+        self.threads = threads
+        self.stop: StopFlag | None = None
+        self.best_plan: tuple[np.ndarray, np.ndarray] | None = None
+        self.best_value: float | None = None
+        self.details: dict[str, Any] = {
+            "options": {"mip_rel_gap": self.gap, "threads": threads, **TOLERANCES},
+            "nodes": 0, "solves": 0, "build_s": 0.0, "solve_s": 0.0,
+        }
+
+    # ----------------------------------------------------------------------- plans
+
+    def offer_plan(self, idx, sched, source: str) -> float:
+        """Simulate a plan; keep it if it beats the incumbent. Returns its simulated value."""
+        idx, sched = np.asarray(idx, np.int64), np.asarray(sched, np.int64)
+        value = simulate_indices(self.instance, idx, sched).metrics[self.objective]
+        if self.best_value is None or better(self.objective, value, self.best_value):
+            self.best_plan, self.best_value = (idx, sched), value
+            self.details["plan_source"] = source
+        return value
+
+    def worth(self, value: float) -> float:
+        """An objective value as a worth (AoI objectives are minimised: worth = -A)."""
+        return value if self.kind == "voi" else -value
+
+    def remaining(self) -> float | None:
+        return None if self.deadline is None else self.deadline - time.perf_counter()
+
+    def out_of_time(self) -> bool:
+        r = self.remaining()
+        return (r is not None and r <= 0) or (self.stop is not None and self.stop.requested)
+
+    # ----------------------------------------------------------------------- HiGHS
+
+    def highs(self, model: model_mod.Model):
+        import highspy
+
+        t = time.perf_counter()
+        h = highspy.Highs()
+        h.setOptionValue("output_flag", bool(self.progress))
+        h.setOptionValue("mip_rel_gap", self.gap)
+        for k, v in TOLERANCES.items():
+            h.setOptionValue(k, v)
+        h.setOptionValue("random_seed", 0)
+        if self.threads is not None:
+            h.setOptionValue("threads", int(self.threads))
+        r = self.remaining()
+        if r is not None:
+            h.setOptionValue("time_limit", max(r, 1e-3))
+        h.passModel(model.to_highs_lp())
+        stop = self.stop
+
+        def interrupt(event) -> None:
+            if stop is not None and stop.requested:
+                event.interrupt()
+
+        h.cbMipInterrupt.subscribe(interrupt)
+        h.cbSimplexInterrupt.subscribe(interrupt)
+        self.details["build_s"] += time.perf_counter() - t
+        self.details["model"] = model.size()
+        return h
+
+    def run_highs(self, h) -> tuple[Any, Any]:
+        t = time.perf_counter()
+        h.run()
+        self.details["solve_s"] += time.perf_counter() - t
+        self.details["solves"] += 1
+        info = h.getInfo()
+        self.details["nodes"] += int(max(info.mip_node_count, 0))
+        return h.getModelStatus(), info
+
+    @staticmethod
+    def has_solution(h, info) -> bool:
+        return info.primal_solution_status == 2  # kSolutionStatusFeasible
+
+    # ------------------------------------------------------- min-voi, max-aoi: bisection
+
+    def solve_bisection(self) -> tuple[str, float]:
+        """Largest candidate worth J such that every sensor can be kept >= J in every slot."""
+        import highspy
+
+        t = time.perf_counter()
+        st = model_mod.structure(self.instance, self.kind)
+        cand = st.candidates()
+        top = int(np.searchsorted(cand, st.best_worth()[1:].min(), side="right")) - 1
+        lo = self._feasible_index(cand, self.worth(self.best_value))
+        hi = top  # cand[hi + 1:] are proven infeasible (or exceed the relaxation)
+        self.details["build_s"] += time.perf_counter() - t
+        self.details["candidates"] = int(top - max(lo, 0) + 1)
+        steps = []
+        status = "optimal"
+        while lo < hi:
+            if self.out_of_time():
+                status = "time_limit"
+                break
+            mid = (lo + hi + 1) // 2
+            t = time.perf_counter()
+            model = model_mod.build_covering(self.instance, self.objective, float(cand[mid]))
+            self.details["build_s"] += time.perf_counter() - t
+            if model is None:
+                steps.append("unreachable")
+                hi = mid - 1
+                continue
+            h = self.highs(model)
+            ms, info = self.run_highs(h)
+            if self.has_solution(h, info):
+                idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
+                value = self.offer_plan(idx, sched, source="covering model")
+                lo = max(mid, self._feasible_index(cand, self.worth(value)))
+                steps.append("feasible")
+            elif ms == highspy.HighsModelStatus.kInfeasible:
+                hi = mid - 1
+                steps.append("infeasible")
+            else:  # time limit or interrupt before a decision
+                status = "time_limit"
+                steps.append(str(ms).split(".")[-1])
+                break
+        self.details["bisection"] = steps
+        bound_worth = float(cand[hi]) if hi >= 0 else float(cand[0])
+        return status, self.worth(bound_worth)
+
+    @staticmethod
+    def _feasible_index(cand: np.ndarray, worth: float) -> int:
+        return int(np.searchsorted(cand, worth, side="right")) - 1
+
+    # -------------------------------------------------- mean-min-voi, mean-max-aoi: one MILP
+
+    def solve_mean(self) -> tuple[str, float | None]:
+        import highspy
+
+        t = time.perf_counter()
+        st = model_mod.structure(self.instance, self.kind)
+        warm_worth = self.worth(self.best_value)
+        scale = warm_worth if self.kind == "voi" and warm_worth > 0 else None
+        model = model_mod.build(self.instance, self.objective, scale=scale)
+        self.details["scale"] = model.scale
+        self.details["build_s"] += time.perf_counter() - t
+        h = self.highs(model)
+        h.setSolution(_solution(model, *self.best_plan))
+        ms, info = self.run_highs(h)
+        K = highspy.HighsModelStatus
+        if self.has_solution(h, info):
+            idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
+            self.offer_plan(idx, sched, source="HiGHS")
+        self.details["highs_status"] = h.modelStatusToString(ms)
+        self.details["mip_gap"] = float(info.mip_gap) if math.isfinite(info.mip_gap) else None
+        bound = self._dual_bound_worth(model, info)
+        if ms == K.kOptimal:
+            status = "optimal"
+            bound = self._patch(model, bound)
+        elif ms in (K.kTimeLimit, K.kInterrupt, K.kSolutionLimit, K.kIterationLimit):
+            status = "time_limit"
+        else:  # keep the best plan, claim nothing
+            self.details["note"] = f"HiGHS ended with {self.details['highs_status']!r}"
+            return "feasible", None
+        return status, (None if bound is None else self.worth(bound))
+
+    def _dual_bound_worth(self, model: model_mod.Model, info) -> float | None:
+        """HiGHS's dual bound as a worth, widened by BOUND_RTOL for its tolerances."""
+        b = info.mip_dual_bound
+        if not math.isfinite(b):
+            return None
+        w = model.worth_of_objective(b)
+        w += BOUND_RTOL * abs(w) + model_mod_abs_slack(model)
+        if self.kind == "aoi":  # sum over slots of integer ages: round down to a multiple of 1/T
+            T = self.instance.horizon
+            w = math.floor(w * T + 1e-6) / T
+        return w
+
+    def _patch(self, model: model_mod.Model, bound: float | None) -> float | None:
+        """HiGHS says optimal; make sure the simulated value really meets the bound to
+        PATCH_RTOL, else ask for a plan better by PATCH_RTOL (and take it, or its bound)."""
+        import highspy
+
+        for _ in range(3):
+            value = self.worth(self.best_value)
+            if bound is None or bound - value <= PATCH_RTOL * max(abs(bound), abs(value)):
+                return bound
+            if self.out_of_time():
+                return bound
+            # worths of AoI plans are multiples of 1/T: ask for the next multiple
+            step = 0.5 / self.instance.horizon if self.kind == "aoi" else PATCH_RTOL * abs(value)
+            cutoff = value + step
+            h = self.highs(model)
+            z = model.z_cols
+            h.addRow(cutoff / model.scale, highspy.kHighsInf, len(z), z.astype(np.int32), model.cost[z])
+            ms, info = self.run_highs(h)
+            self.details["patched"] = self.details.get("patched", 0) + 1
+            if self.has_solution(h, info):
+                idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
+                self.offer_plan(idx, sched, source="HiGHS (patch)")
+            if ms == highspy.HighsModelStatus.kInfeasible:
+                return min(bound, value if self.kind == "aoi" else cutoff)
+            if ms != highspy.HighsModelStatus.kOptimal:
+                return bound
+            new = self._dual_bound_worth(model, info)
+            bound = bound if new is None else min(bound, max(new, self.worth(self.best_value)))
+        return bound
+
+
+def model_mod_abs_slack(model: model_mod.Model) -> float:
+    """An absolute allowance for HiGHS's feasibility tolerances on the z rows, in worth units."""
+    return TOLERANCES["primal_feasibility_tolerance"] * model.scale
+
+
+def _solution(model: model_mod.Model, idx: np.ndarray, sched: np.ndarray) -> Any:
+    import highspy
+
+    sol = highspy.HighsSolution()
+    sol.col_value = model.solution_from_plan(idx, sched).tolist()
+    sol.value_valid = True
+    return sol
