@@ -1,0 +1,113 @@
+"""Q-learning: the kernel is Algorithm 1 (bit-identical to the plain-Python reference), it
+reaches known optima, its plans are legal and valued by the simulator, and the AoI reward
+optimises AoI where AoI and VoI disagree."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from bruteforce import brute_force
+from conftest import tiny_instances
+
+import voiopt
+from voiopt.errors import OptionError
+from voiopt.instance import from_dict
+from voiopt.models import mdp
+from voiopt.solvers import qlearning as ql
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from reference_qlearning import reference_qlearning  # noqa: E402
+
+
+def _kernel(model, episodes, seed, slots=16):
+    """Train with a deliberately tiny table so that growth and rehashing are exercised."""
+    table = ql.QTable(model, 0.0, 100, slots=slots)
+    eps, rng = np.array([1.0]), np.array([ql.seed_state(seed)], dtype=np.uint64)
+    done, fits = ql.train(model, table, episodes, eps, 1.0 / episodes, ql.BETA, ql.GAMMA, rng)
+    assert (done, fits) == (episodes, True)
+    idx, sched = ql.rollout(model, table)
+    return table.to_dict(), idx.tolist(), sched.tolist()
+
+
+@pytest.mark.parametrize("reward", ["voi", "aoi"])
+@pytest.mark.parametrize("slot", [False, True])
+@pytest.mark.parametrize("inst", [voiopt.generate(3, 8, width=3, height=3, seed=11), *tiny_instances(2, seed=5)],
+                         ids=lambda i: i.name)
+def test_kernel_equals_plain_python_algorithm_1(inst, reward, slot):
+    model = mdp.build(inst, reward, slot_in_state=slot)
+    q_ref, idx_ref, sched_ref = reference_qlearning(model, 600, seed=42)
+    q, idx, sched = _kernel(model, 600, seed=42)
+    assert len(q) == len(q_ref) > 10
+    assert q == q_ref  # every state, every Q-value, bit for bit
+    assert (idx, sched) == (idx_ref, sched_ref)
+
+
+def test_same_seed_same_plan_and_seed_matters(case_study):
+    a = ql.solve(case_study, episodes=3000, seed=1)
+    b = ql.solve(case_study, episodes=3000, seed=1)
+    assert a.plan == b.plan and a.solver["table_states"] == b.solver["table_states"]
+    others = {ql.solve(case_study, episodes=3000, seed=s).solver["table_states"] for s in range(2, 6)}
+    assert len(others | {a.solver["table_states"]}) > 1
+
+
+@pytest.mark.parametrize("inst", tiny_instances(10, seed=2024), ids=lambda i: i.name)
+def test_reaches_the_brute_force_optimum_with_exact_horizon(inst):
+    # gamma = 1, no penalty and t in the state: the return is exactly T * objective
+    for objective, solve in (("mean-min-voi", ql.solve), ("mean-max-aoi", ql.solve_aoi)):
+        best, _ = brute_force(inst, objective)
+        r = solve(inst, objective, episodes=200_000, gamma=1.0, penalty=0.0, slot_in_state=True)
+        assert r.value == pytest.approx(best, rel=1e-9)
+
+
+@pytest.mark.parametrize("inst", tiny_instances(8, seed=99), ids=lambda i: i.name)
+def test_paper_settings_give_legal_plans_valued_by_the_simulator(inst):
+    for objective in voiopt.OBJECTIVES:
+        for method in ("qlearning", "aoi-qlearning"):
+            r = voiopt.solve(inst, method=method, objective=objective, episodes=2000, seed=3)
+            assert r.status == "feasible" and r.bound is None
+            assert r.metrics == voiopt.evaluate(inst, r.plan)  # raises if illegal
+            assert r.value == r.metrics[objective]
+            best, _ = brute_force(inst, objective)
+            assert (r.value <= best * (1 + 1e-9)) if objective.endswith("voi") else (r.value >= best)
+            assert r.solver["episodes_run"] == 2000 and r.solver["table_states"] > 0
+
+
+def test_aoi_reward_minimises_aoi_where_aoi_and_voi_disagree():
+    # Sensor 0 decorrelates fast (rho 0.2) but is fresh; sensor 1 is old but slow (rho 0.95).
+    # The two ends of the corridor cannot both be reached in time: VoI wants sensor 0, AoI 1.
+    inst = from_dict({
+        "name": "aoi-vs-voi", "area": {"width": 4, "height": 1}, "horizon": 6, "start": [2, 0],
+        "sensors": [{"position": [0, 0.5], "rho": 0.2, "initial_aoi": 1},
+                    {"position": [4, 0.5], "rho": 0.95, "initial_aoi": 6}],
+    })
+    aoi_best, aoi_plan = brute_force(inst, "mean-max-aoi")
+    voi_best, voi_plan = brute_force(inst, "mean-min-voi")
+    assert voiopt.evaluate(inst, voi_plan)["mean-max-aoi"] > aoi_best  # they do disagree
+    assert voiopt.evaluate(inst, aoi_plan)["mean-min-voi"] < voi_best
+    voi_q = ql.solve(inst, "mean-max-aoi", episodes=20_000)
+    aoi_q = ql.solve_aoi(inst, "mean-max-aoi", episodes=20_000)
+    assert aoi_q.value == aoi_best < voi_q.value
+    assert voi_q.metrics["mean-min-voi"] == pytest.approx(voi_best, rel=1e-9)
+    assert aoi_q.metrics["mean-min-voi"] < voi_q.metrics["mean-min-voi"]
+
+
+def test_stops_cleanly_at_the_memory_limit_and_time_limit():
+    inst = voiopt.generate(4, 30, seed=0)
+    r = ql.solve(inst, episodes=200_000, max_memory_mb=4)
+    assert r.status == "time_limit" and "memory limit of 4 MiB" in r.solver["stopped"]
+    assert r.solver["episodes_run"] < 200_000 and r.solver["table_mib"] <= 4
+    assert r.metrics == voiopt.evaluate(inst, r.plan)
+    r = ql.solve(inst, episodes=10**9, time_limit=0.3)
+    assert r.status == "time_limit" and "time limit" in r.solver["stopped"]
+
+
+@pytest.mark.parametrize("option,value", [
+    ("episodes", 0), ("episodes", 1.5), ("seed", -1), ("beta", 0.0), ("gamma", 1.5),
+    ("q_init", float("nan")), ("time_limit", 0), ("max_memory_mb", 0), ("slot_in_state", 1),
+])
+def test_bad_options_name_the_option(case_study, option, value):
+    with pytest.raises(OptionError, match=option):
+        ql.solve(case_study, **{option: value})
