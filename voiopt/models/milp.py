@@ -200,7 +200,8 @@ class Model:
     matrix: sp.csc_matrix
     z_cols: np.ndarray  # columns of z (empty for covering)
     z_row_of: np.ndarray  # (rows,) the z index a row bounds, -1 otherwise
-    h_count: int = 0
+    levels: LevelTerms | None = None
+    h_cols: np.ndarray | None = None
 
     @property
     def n_cols(self) -> int:
@@ -272,10 +273,10 @@ class Model:
         col[st.x_col[np.arange(st.horizon), idx]] = 1.0
         for u in upload_ids(st, idx, sched):
             col[st.up_col[u]] = 1.0
-        if self.h_count:
+        if self.levels is not None:
             best = best_level_before(st, idx, sched)  # (T+1, N)
-            h = self._h
-            col[h["col"]] = (best[h["t"], h["i"]] >= h["level"]).astype(float)
+            lt = self.levels
+            col[self.h_cols] = (best[lt.slot, lt.sensor] >= lt.level).astype(float)
         if len(self.z_cols):
             activity = self.matrix @ col  # z columns are still 0
             room = np.full(len(self.z_cols), np.inf)
@@ -407,29 +408,50 @@ def default_scale(st: Structure, objective: str) -> float:
     return ref if ref > 0 and math.isfinite(ref) else 1.0
 
 
-def build(instance: Instance, objective: str, *, scale: float | None = None) -> Model:
-    """The full MILP for ``objective``: per-slot z for the mean objectives, one z for the
-    min/max objectives. Maximises (1/T) sum z_t, or z, in worth units of ``scale``."""
-    kind = worth_kind(objective)
-    st = structure(instance, kind)
-    T, N = st.horizon, st.n_sensors
-    per_slot = objective in PER_SLOT_OBJECTIVES
-    scale = float(scale) if scale is not None else default_scale(st, objective)
-    if not (scale > 0 and math.isfinite(scale)):
-        raise ValueError(f"scale: must be a positive finite number, got {scale!r}")
+@dataclass(frozen=True, eq=False)
+class LevelTerms:
+    """The H variables of one objective, grouped by (sensor, level) and by slot within a group,
+    with the bounds of z: floor <= z_t <= cap (one entry per z)."""
 
-    best = st.best_worth()  # (T+1, N)
-    cap_t = best[1:].min(axis=1)  # z_t <= cap_t
+    sensor: np.ndarray  # (E,) i
+    slot: np.ndarray  # (E,) t in 1..T
+    level: np.ndarray  # (E,) l
+    increment: np.ndarray  # (E,) inc_l(t) >= 0, capped at the z cap, in worth units
+    previous: np.ndarray  # (E,) index of the previous H of the same (i, l), -1 for the first
+    previous_slot: np.ndarray  # (E,) its slot t', 0 for the first
+    cap: np.ndarray  # (n_z,)
+    floor: np.ndarray  # (n_z,)
+    worth_rows: tuple[np.ndarray, np.ndarray]  # (sensor, slot) pairs that bound z (w0 < cap)
+
+    def uploads(self, st: Structure, e: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (entry, upload u) with u of the entry's sensor, level(u) >= l, slot in [t', t)."""
+        es, us = [], []
+        for i in range(st.n_sensors):
+            ei = np.flatnonzero(self.sensor == i)
+            ui = np.flatnonzero(st.up_sensor == i)
+            if not len(ei) or not len(ui):
+                continue
+            hit = (
+                (st.up_level[ui][None, :] >= self.level[ei][:, None])
+                & (st.up_slot[ui][None, :] >= self.previous_slot[ei][:, None])
+                & (st.up_slot[ui][None, :] < self.slot[ei][:, None])
+            )
+            a, b = np.nonzero(hit)
+            es.append(ei[a])
+            us.append(ui[b])
+        cat = lambda xs: np.concatenate(xs) if xs else np.zeros(0, np.int64)  # noqa: E731
+        return cat(es), cat(us)
+
+
+def level_terms(st: Structure, per_slot: bool) -> LevelTerms:
+    """H entries (i, t, l) for live levels l whose lower neighbour is still below the cap on z
+    (higher levels cannot raise min_i worth), with telescoping, capped increments."""
+    T, N = st.horizon, st.n_sensors
+    cap_t = st.best_worth()[1:].min(axis=1)  # z_t <= cap_t
     floor_t = st.worth0[1:].min(axis=1)  # z_t >= floor_t: every sensor keeps at least its packet
     if not per_slot:
         cap_t = np.full(T, cap_t.min())
         floor_t = np.full(T, floor_t.min())
-
-    lower, upper, base_integrality = _base_columns(st)
-    tr = _Triplets()
-    _path_rows(st, tr)
-
-    # H columns: (i, t, l) for live levels l whose lower neighbour is still below the cap
     h_i, h_t, h_l, h_inc = [], [], [], []
     for i in range(N):
         w = st.level_worth[i]
@@ -452,6 +474,32 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     h_i, h_t, h_l, h_inc = cat(h_i, np.int64), cat(h_t, np.int64), cat(h_l, np.int64), cat(h_inc, float)
     order = np.lexsort((h_t, h_l, h_i))  # grouped by (i, l), by t within a group
     h_i, h_t, h_l, h_inc = h_i[order], h_t[order], h_l[order], h_inc[order]
+    same = np.zeros(len(h_i), dtype=bool)
+    same[1:] = (h_i[1:] == h_i[:-1]) & (h_l[1:] == h_l[:-1])
+    e = np.arange(len(h_i))
+    previous = np.where(same, e - 1, -1)
+    previous_slot = np.where(same, h_t[np.maximum(e - 1, 0)], 0)
+    zi, zt = np.nonzero((st.worth0[1:] < cap_t[:, None]).T)  # (sensor, slot - 1)
+    n_z = T if per_slot else 1
+    return LevelTerms(h_i, h_t, h_l, h_inc, previous, previous_slot, cap_t[:n_z], floor_t[:n_z], (zi, zt + 1))
+
+
+def build(instance: Instance, objective: str, *, scale: float | None = None) -> Model:
+    """The full MILP for ``objective``: per-slot z for the mean objectives, one z for the
+    min/max objectives. Maximises (1/T) sum z_t, or z, in worth units of ``scale``."""
+    kind = worth_kind(objective)
+    st = structure(instance, kind)
+    T = st.horizon
+    per_slot = objective in PER_SLOT_OBJECTIVES
+    scale = float(scale) if scale is not None else default_scale(st, objective)
+    if not (scale > 0 and math.isfinite(scale)):
+        raise ValueError(f"scale: must be a positive finite number, got {scale!r}")
+    lt = level_terms(st, per_slot)
+    h_i, h_t, h_inc = lt.sensor, lt.slot, lt.increment
+
+    lower, upper, base_integrality = _base_columns(st)
+    tr = _Triplets()
+    _path_rows(st, tr)
     n_base = len(lower)
     h_col = n_base + np.arange(len(h_i))
     n_z = T if per_slot else 1
@@ -459,33 +507,23 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
 
     # H[i, t, l] - H[i, t', l] - sum_{s in [t', t-1], level(u) >= l} y_u <= 0, t' = the
     # previous slot with an H of the same (i, l), or 0 (and no H term) for the first
-    same = np.zeros(len(h_i), dtype=bool)
-    same[1:] = (h_i[1:] == h_i[:-1]) & (h_l[1:] == h_l[:-1])
-    prev_t = np.where(same, np.concatenate([[0], h_t[:-1]]), 0)
     e = np.arange(len(h_i))
-    rows, cols, vals = [e, e[same]], [h_col, h_col[e[same] - 1]], [np.ones(len(e)), -np.ones(int(same.sum()))]
-    for i in range(N):
-        ei = np.flatnonzero(h_i == i)
-        ui = np.flatnonzero(st.up_sensor == i)
-        if not len(ei) or not len(ui):
-            continue
-        hit = (
-            (st.up_level[ui][None, :] >= h_l[ei][:, None])
-            & (st.up_slot[ui][None, :] >= prev_t[ei][:, None])
-            & (st.up_slot[ui][None, :] < h_t[ei][:, None])
-        )
-        a, b = np.nonzero(hit)
-        rows.append(ei[a])
-        cols.append(st.up_col[ui[b]])
-        vals.append(-np.ones(len(a)))
-    tr.add(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), np.full(len(e), -np.inf), 0.0)
+    has_prev = lt.previous >= 0
+    eu, uu = lt.uploads(st)
+    tr.add(
+        np.concatenate([e, e[has_prev], eu]),
+        np.concatenate([h_col, h_col[lt.previous[has_prev]], st.up_col[uu]]),
+        np.concatenate([np.ones(len(e)), -np.ones(int(has_prev.sum())), -np.ones(len(eu))]),
+        np.full(len(e), -np.inf),
+        0.0,
+    )
 
     # z_t - sum_l inc_l(t)/scale H[i, t, l] <= w0_i(t)/scale for every (i, t) with w0 below the cap
-    zi, zt = np.nonzero((st.worth0[1:] < cap_t[:, None]).T)  # (sensor, slot-1)
-    zt = zt + 1
-    row_of = {(int(i), int(t)): r for r, (i, t) in enumerate(zip(zi, zt, strict=True))}
+    zi, zt = lt.worth_rows
+    row_of = np.full((st.n_sensors, T + 1), -1, dtype=np.int64)
+    row_of[zi, zt] = np.arange(len(zt))
     z_index = (zt - 1) if per_slot else np.zeros(len(zt), dtype=np.int64)
-    r_h = np.array([row_of.get((int(i), int(t)), -1) for i, t in zip(h_i, h_t, strict=True)], dtype=np.int64)
+    r_h = row_of[h_i, h_t]
     m = r_h >= 0
     tr.add(
         np.concatenate([np.arange(len(zt)), r_h[m]]),
@@ -496,8 +534,8 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
         z_of=z_index,
     )
 
-    col_lower = np.concatenate([lower, np.zeros(len(h_i)), (floor_t if per_slot else floor_t[:1]) / scale])
-    col_upper = np.concatenate([upper, np.ones(len(h_i)), (cap_t if per_slot else cap_t[:1]) / scale])
+    col_lower = np.concatenate([lower, np.zeros(len(h_i)), lt.floor / scale])
+    col_upper = np.concatenate([upper, np.ones(len(h_i)), lt.cap / scale])
     cost = np.zeros(len(col_lower))
     cost[z_cols] = 1.0 / n_z
     integrality = np.zeros(len(col_lower), dtype=np.int8)
@@ -505,9 +543,8 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     model = Model(
         st, objective, "per-slot" if per_slot else "single", scale, col_lower, col_upper, cost,
         integrality, np.concatenate(tr.lower), np.concatenate(tr.upper), tr.matrix(len(col_lower)),
-        z_cols, np.concatenate(tr.z_of), len(h_i),
+        z_cols, np.concatenate(tr.z_of), lt, h_col,
     )
-    model._h = {"col": h_col, "i": h_i, "t": h_t, "level": h_l}
     return model
 
 
@@ -518,12 +555,11 @@ def build_covering(instance: Instance, objective: str, threshold: float) -> Mode
     of i before t at a level whose worth at t is >= threshold."""
     kind = worth_kind(objective)
     st = structure(instance, kind)
-    T, N = st.horizon, st.n_sensors
     lower, upper, integrality = _base_columns(st)
     tr = _Triplets()
     _path_rows(st, tr)
     rows, cols, n_cover = [], [], 0
-    for i in range(N):
+    for i in range(st.n_sensors):
         need = np.flatnonzero(st.worth0[1:, i] < threshold) + 1
         if not len(need):
             continue

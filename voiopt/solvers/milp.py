@@ -235,7 +235,6 @@ class _Run:
         import highspy
 
         t = time.perf_counter()
-        st = model_mod.structure(self.instance, self.kind)
         warm_worth = self.worth(self.best_value)
         scale = warm_worth if self.kind == "voi" and warm_worth > 0 else None
         model = model_mod.build(self.instance, self.objective, scale=scale)
