@@ -1,0 +1,69 @@
+"""Q-learning speed: the compiled kernel against plain-Python Algorithm 1, same process.
+
+    .venv/bin/python benchmarks/qlearning_speed.py [--episodes 1000000] [--networks 3]
+
+Paper defaults (R_max = 1e6, beta 0.75, gamma 0.9) on random N = 4, T = 30 networks. Prints
+steps per second of each (wall clock, whole solve including rollouts), the ratio, the wall and
+CPU time of each full solve and the peak memory. On a shared machine compare the CPU column.
+Targets (issue 4): ratio >= 100, 1e6 episodes < 10 s on one core, peak memory < 2 GiB.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from reference_qlearning import reference_qlearning  # noqa: E402
+
+import voiopt  # noqa: E402
+from voiopt.models import mdp  # noqa: E402
+from voiopt.solvers import qlearning as ql  # noqa: E402
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--episodes", type=int, default=1_000_000, help="R_max of the compiled runs")
+    ap.add_argument("--reference-episodes", type=int, default=3000, help="episodes of the plain-Python run")
+    ap.add_argument("--networks", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+
+    networks = voiopt.generate_set(args.networks, seed=args.seed, n_sensors=4, horizon=30)
+    T = networks[0].horizon
+    ql.solve(networks[0], episodes=10)  # compile (or load the numba cache) outside the timings
+
+    model = mdp.build(networks[0])
+    t0 = time.perf_counter()
+    reference_qlearning(model, args.reference_episodes, seed=args.seed)
+    ref_s = time.perf_counter() - t0  # wall, like the compiled runs: both see the same load
+    ref_rate = args.reference_episodes * T / ref_s
+    print(f"plain Python  {args.reference_episodes} episodes on {networks[0].name}: "
+          f"{ref_s:.2f} s, {ref_rate:,.0f} steps/s")
+
+    print(f"{'network':<22} {'episodes':>9} {'wall s':>7} {'cpu s':>7} {'steps/s':>12} {'ratio':>7} {'states':>9} "
+          f"{'table MiB':>9}  value (mean-min-voi)")
+    rates, walls = [], []
+    for inst in networks:
+        t0, c0 = time.perf_counter(), time.process_time()
+        r = ql.solve(inst, "mean-min-voi", episodes=args.episodes, seed=args.seed)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        rate = r.solver["episodes_run"] * T / wall
+        rates.append(rate)
+        walls.append(wall)
+        print(f"{inst.name:<22} {r.solver['episodes_run']:>9} {wall:>7.2f} {cpu:>7.2f} {rate:>12,.0f} "
+              f"{rate / ref_rate:>7.0f} {r.solver['table_states']:>9} {r.solver['table_mib']:>9.1f}  {r.value:.6g}")
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB on Linux
+    mean_rate = sum(rates) / len(rates)
+    print(f"compiled mean {mean_rate:,.0f} steps/s; ratio to plain Python {mean_rate / ref_rate:.0f}x "
+          f"(target >= 100x); wall per {args.episodes} episodes: max {max(walls):.2f} s (target < 10 s); "
+          f"peak memory {peak:.0f} MiB (target < 2048 MiB)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
