@@ -18,6 +18,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import numpy as np  # noqa: E402
 from reference_qlearning import reference_qlearning  # noqa: E402
 
 import voiopt  # noqa: E402
@@ -44,6 +45,13 @@ def main() -> int:
     ref_rate = args.reference_episodes * T / ref_s
     print(f"plain Python  {args.reference_episodes} episodes on {networks[0].name}: "
           f"{ref_s:.2f} s, {ref_rate:,.0f} steps/s")
+    table = ql.QTable(model, 0.0, 1536)
+    eps, rng = np.array([1.0]), np.array([ql.seed_state(args.seed)], dtype=np.uint64)
+    t0 = time.perf_counter()
+    ql.train(model, table, args.reference_episodes, eps, 1.0 / args.reference_episodes, ql.BETA, ql.GAMMA, rng)
+    same_s = time.perf_counter() - t0
+    print(f"compiled kernel, the same {args.reference_episodes} episodes: {same_s:.4f} s, "
+          f"{args.reference_episodes * T / same_s:,.0f} steps/s, ratio {ref_s / same_s:.0f}x")
 
     print(f"{'network':<22} {'episodes':>9} {'wall s':>7} {'cpu s':>7} {'steps/s':>12} {'ratio':>7} {'states':>9} "
           f"{'table MiB':>9}  value (mean-min-voi)")

@@ -81,7 +81,7 @@ def _hash(key):
     return h
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _find(key, table):
     """(slot, Q row or -1): where the key is, or the empty slot where it would go.
     A slot is its key words followed by 1 + its row in the Q pool (0 = empty)."""
