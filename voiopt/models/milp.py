@@ -202,6 +202,7 @@ class Model:
     z_row_of: np.ndarray  # (rows,) the z index a row bounds, -1 otherwise
     levels: LevelTerms | None = None
     h_cols: np.ndarray | None = None
+    row_blocks: tuple[tuple[str, int], ...] = ()
 
     @property
     def n_cols(self) -> int:
@@ -215,7 +216,32 @@ class Model:
         return {"rows": self.n_rows, "cols": self.n_cols, "nnz": int(self.matrix.nnz),
                 "binaries": int(self.integrality.sum())}
 
-    def to_highs_lp(self, natural_units: bool = False):
+    def col_names(self) -> list[str]:
+        """x_t<slot>_p<point>, y_i<sensor>_t<slot>_p<point>, H_i<sensor>_t<slot>_l<level>, z_t<slot>."""
+        st = self.structure
+        names = [""] * self.n_cols
+        for t, p in zip(*np.nonzero(st.x_col >= 0), strict=True):
+            names[st.x_col[t, p]] = f"x_t{t}_p{p}"
+        for u in range(st.n_uploads):
+            names[st.up_col[u]] = f"y_i{st.up_sensor[u]}_t{st.up_slot[u]}_p{st.up_point[u]}"
+        if self.levels is not None:
+            lt = self.levels
+            for e, c in enumerate(self.h_cols):
+                names[c] = f"H_i{lt.sensor[e]}_t{lt.slot[e]}_l{lt.level[e]}"
+        for k, c in enumerate(self.z_cols):
+            names[c] = f"z_t{k + 1}" if len(self.z_cols) > 1 else "z"
+        return names
+
+    def row_names(self) -> list[str]:
+        counts: dict[str, int] = {}
+        names = []
+        for prefix, n in self.row_blocks:
+            start = counts.get(prefix, 0)
+            names += [f"{prefix}{k}" for k in range(start, start + n)]
+            counts[prefix] = start + n
+        return names
+
+    def to_highs_lp(self, natural_units: bool = False, names: bool = False):
         """A highspy HighsLp. ``natural_units`` states the objective in the objective's own
         units and sense (bit/s maximised, or AoI minimised), as written by :func:`export`."""
         import highspy
@@ -246,24 +272,16 @@ class Model:
             highspy.HighsVarType.kInteger if v else highspy.HighsVarType.kContinuous
             for v in self.integrality
         ]
+        if names:
+            lp.col_names_ = self.col_names()
+            lp.row_names_ = self.row_names()
         return lp
 
     # -------------------------------------------------------------- plans and solutions
 
     def plan_from_solution(self, col_value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(point indices, schedule with -1) of a solution; uploads that do not beat the
-        sensor's best so far are dropped (they never help, MODEL.md section 4)."""
-        st = self.structure
-        T = st.horizon
-        xv = np.where(st.x_col >= 0, col_value[np.maximum(st.x_col, 0)], -np.inf)
-        idx = xv.argmax(axis=1)
-        sched = np.full(T, -1, dtype=np.int64)
-        yv = col_value[st.up_col]
-        chosen = yv > 0.5
-        chosen &= st.up_point == idx[st.up_slot]
-        for u in np.flatnonzero(chosen):
-            sched[st.up_slot[u]] = st.up_sensor[u]
-        return idx, clean_schedule(st, idx, sched)
+        """(point indices, schedule with -1) of a solution vector of this model."""
+        return plan_from_columns(self.structure, col_value)
 
     def solution_from_plan(self, idx: np.ndarray, sched: np.ndarray) -> np.ndarray:
         """A full column vector for a plan (its uploads cleaned first): x, y, H and z."""
@@ -288,6 +306,18 @@ class Model:
     def worth_of_objective(self, objective_value: float) -> float:
         """A model objective value (scaled units) as a worth (the mean or the min)."""
         return float(objective_value) * self.scale
+
+
+def plan_from_columns(st: Structure, col_value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(point indices, schedule with -1) from the x and y values of a solution; uploads that
+    do not beat the sensor's best so far are dropped (they never help, MODEL.md section 4)."""
+    xv = np.where(st.x_col >= 0, col_value[np.maximum(st.x_col, 0)], -np.inf)
+    idx = xv.argmax(axis=1)
+    sched = np.full(st.horizon, -1, dtype=np.int64)
+    chosen = (col_value[st.up_col] > 0.5) & (st.up_point == idx[st.up_slot])
+    for u in np.flatnonzero(chosen):
+        sched[st.up_slot[u]] = st.up_sensor[u]
+    return idx, clean_schedule(st, idx, sched)
 
 
 def upload_ids(st: Structure, idx: np.ndarray, sched: np.ndarray) -> list[int]:
@@ -334,10 +364,12 @@ class _Triplets:
         self.lower: list[np.ndarray] = []
         self.upper: list[np.ndarray] = []
         self.z_of: list[np.ndarray] = []
+        self.blocks: list[tuple[str, int]] = []
         self.n_rows = 0
 
-    def add(self, row_local, col, val, lower, upper, z_of=None) -> None:
+    def add(self, row_local, col, val, lower, upper, z_of=None, name: str = "r") -> None:
         lower = np.atleast_1d(np.asarray(lower, dtype=float))
+        self.blocks.append((name, len(lower)))
         self.rows.append(np.asarray(row_local, dtype=np.int64) + self.n_rows)
         self.cols.append(np.asarray(col, dtype=np.int64))
         self.vals.append(np.broadcast_to(np.asarray(val, dtype=float), np.shape(col)).copy())
@@ -366,7 +398,7 @@ def _path_rows(st: Structure, tr: _Triplets) -> None:
     T = st.horizon
     # sum_p x[p, t] = 1
     t_of, p_of = np.nonzero(st.x_col >= 0)
-    tr.add(t_of, st.x_col[t_of, p_of], 1.0, np.ones(T), 1.0)
+    tr.add(t_of, st.x_col[t_of, p_of], 1.0, np.ones(T), 1.0, name="one_point")
     # x[p, t] <= sum_{q in N(p) u {p}} x[q, t-1]
     for t in range(1, T):
         pts = np.flatnonzero(st.x_col[t] >= 0)
@@ -376,7 +408,7 @@ def _path_rows(st: Structure, tr: _Triplets) -> None:
         rows = np.concatenate([np.arange(len(pts)), r])
         cols = np.concatenate([st.x_col[t, pts], prev[r, k]])
         vals = np.concatenate([np.ones(len(pts)), -np.ones(len(r))])
-        tr.add(rows, cols, vals, np.full(len(pts), -np.inf), 0.0)
+        tr.add(rows, cols, vals, np.full(len(pts), -np.inf), 0.0, name=f"move_t{t}_")
     # sum_i y[i, t, p] <= x[p, t]
     if st.n_uploads:
         key = st.up_slot * st.n_points + st.up_point
@@ -385,7 +417,7 @@ def _path_rows(st: Structure, tr: _Triplets) -> None:
         rows = np.concatenate([row, np.arange(len(keys))])
         cols = np.concatenate([st.up_col, st.x_col[t_k, p_k]])
         vals = np.concatenate([np.ones(st.n_uploads), -np.ones(len(keys))])
-        tr.add(rows, cols, vals, np.full(len(keys), -np.inf), 0.0)
+        tr.add(rows, cols, vals, np.full(len(keys), -np.inf), 0.0, name="tdma")
 
 
 def _base_columns(st: Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -516,6 +548,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
         np.concatenate([np.ones(len(e)), -np.ones(int(has_prev.sum())), -np.ones(len(eu))]),
         np.full(len(e), -np.inf),
         0.0,
+        name="level",
     )
 
     # z_t - sum_l inc_l(t)/scale H[i, t, l] <= w0_i(t)/scale for every (i, t) with w0 below the cap
@@ -532,6 +565,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
         np.full(len(zt), -np.inf),
         st.worth0[zt, zi] / scale,
         z_of=z_index,
+        name="worth",
     )
 
     col_lower = np.concatenate([lower, np.zeros(len(h_i)), lt.floor / scale])
@@ -543,7 +577,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     model = Model(
         st, objective, "per-slot" if per_slot else "single", scale, col_lower, col_upper, cost,
         integrality, np.concatenate(tr.lower), np.concatenate(tr.upper), tr.matrix(len(col_lower)),
-        z_cols, np.concatenate(tr.z_of), lt, h_col,
+        z_cols, np.concatenate(tr.z_of), lt, h_col, tuple(tr.blocks),
     )
     return model
 
@@ -579,12 +613,12 @@ def build_covering(instance: Instance, objective: str, threshold: float) -> Mode
             cols.append(st.up_col[us])
             n_cover += 1
     if n_cover:
-        tr.add(np.concatenate(rows), np.concatenate(cols), 1.0, np.ones(n_cover), np.inf)
+        tr.add(np.concatenate(rows), np.concatenate(cols), 1.0, np.ones(n_cover), np.inf, name="cover")
     n = len(lower)
     return Model(
         st, objective, "covering", 1.0, lower, upper, np.zeros(n), integrality,
         np.concatenate(tr.lower), np.concatenate(tr.upper), tr.matrix(n), np.zeros(0, np.int64),
-        np.concatenate(tr.z_of),
+        np.concatenate(tr.z_of), row_blocks=tuple(tr.blocks),
     )
 
 
@@ -605,9 +639,9 @@ def export(instance: Instance, objective: str, path: str | os.PathLike) -> Model
     model = build(instance, objective)
     h = highspy.Highs()
     h.silent()
-    h.passModel(model.to_highs_lp(natural_units=True))
+    h.passModel(model.to_highs_lp(natural_units=True, names=True))
     p.parent.mkdir(parents=True, exist_ok=True)
     status = h.writeModel(str(p))
-    if status != highspy.HighsStatus.kOk:
+    if status == highspy.HighsStatus.kError:
         raise OptionError(f"model: HiGHS could not write {str(p)!r}")
     return model

@@ -1,0 +1,119 @@
+"""The MILP arrays: structure, consistency with the simulator, export round trip."""
+
+from __future__ import annotations
+
+import highspy
+import numpy as np
+import pytest
+from bruteforce import brute_force
+from conftest import tiny_instances
+
+import voiopt
+from voiopt import lattice
+from voiopt.errors import OptionError
+from voiopt.models import milp
+from voiopt.result import Plan
+from voiopt.simulate import better, simulate_indices
+
+
+def random_plan(inst, rng):
+    lat = lattice.build(inst)
+    idx = [lat.start]
+    for _ in range(inst.horizon - 1):
+        nb = lat.neighbors[idx[-1]]
+        idx.append(int(rng.choice(nb[nb >= 0])))
+    idx = np.array(idx)
+    sched = np.full(inst.horizon, -1)
+    for t, p in enumerate(idx):
+        ok = np.flatnonzero(lat.in_range[:, p])
+        if len(ok) and rng.random() < 0.7:
+            sched[t] = rng.choice(ok)
+    return idx, sched
+
+
+def solve_highs(model):
+    h = highspy.Highs()
+    h.silent()
+    h.setOptionValue("mip_rel_gap", 0.0)
+    h.passModel(model.to_highs_lp())
+    h.run()
+    assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+    return h
+
+
+def test_variables_only_where_they_can_be_one():
+    inst = voiopt.generate(3, 8, seed=3)
+    lat = lattice.build(inst)
+    st = milp.structure(inst, "voi")
+    for t in range(inst.horizon):
+        assert ((st.x_col[t] >= 0) == lat.reachable(t)).all()
+    assert lat.in_range[st.up_sensor, st.up_point].all()
+    assert lat.reachable(0)[st.up_point[st.up_slot == 0]].all()
+    for w in st.level_worth:  # worth never falls with the level (the ordering fact)
+        for row in w:
+            live = row[~np.isnan(row)]
+            assert (np.diff(live) >= 0).all()
+
+
+@pytest.mark.parametrize("objective", list(voiopt.OBJECTIVES))
+def test_plan_columns_are_feasible_and_score_the_simulated_value(objective):
+    rng = np.random.default_rng(0)
+    for inst in tiny_instances(8, seed=99):
+        model = milp.build(inst, objective)
+        for _ in range(5):
+            idx, sched = random_plan(inst, rng)
+            col = model.solution_from_plan(idx, sched)
+            act = model.matrix @ col
+            assert (act <= model.row_upper + 1e-9).all() and (act >= model.row_lower - 1e-9).all()
+            assert (col >= model.col_lower - 1e-12).all() and (col <= model.col_upper + 1e-12).all()
+            clean = milp.clean_schedule(model.structure, idx, sched)
+            value = simulate_indices(inst, idx, clean).metrics[objective]
+            got = model.worth_of_objective(model.cost @ col)
+            worth = value if model.structure.kind == "voi" else -value
+            assert got == pytest.approx(worth, rel=1e-9)
+            # cleaning never lowers the plan's value
+            raw = simulate_indices(inst, idx, sched).metrics[objective]
+            assert not better(objective, raw, value)
+
+
+@pytest.mark.parametrize("objective", ["min-voi", "max-aoi"])
+def test_single_milp_agrees_with_brute_force(objective):
+    """The one-MILP form of the min/max objectives (what export writes) is exact too."""
+    for inst in tiny_instances(8, seed=7):
+        best, _ = brute_force(inst, objective)
+        model = milp.build(inst, objective)
+        h = solve_highs(model)
+        idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
+        value = voiopt.evaluate(inst, Plan.from_indices(inst, idx, sched))[objective]
+        assert value == pytest.approx(best, rel=1e-6)
+
+
+@pytest.mark.parametrize("suffix", [".mps", ".lp"])
+@pytest.mark.parametrize("objective", list(voiopt.OBJECTIVES))
+def test_export_reads_back_with_the_same_optimum(tmp_path, suffix, objective):
+    inst = tiny_instances(6, seed=5)[5]
+    best, _ = brute_force(inst, objective)
+    path = tmp_path / f"model{suffix}"
+    milp.export(inst, objective, path)
+    h = highspy.Highs()
+    h.silent()
+    h.setOptionValue("mip_rel_gap", 0.0)
+    assert h.readModel(str(path)) == highspy.HighsStatus.kOk
+    h.run()
+    assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+    assert h.getInfo().objective_function_value == pytest.approx(best, rel=1e-6)
+
+
+def test_export_rejects_unknown_format(tmp_path):
+    inst = tiny_instances(1)[0]
+    with pytest.raises(OptionError, match="use .mps or .lp"):
+        milp.export(inst, "min-voi", tmp_path / "model.xyz")
+    assert not (tmp_path / "model.xyz").exists()
+
+
+def test_covering_is_none_when_unreachable():
+    inst = tiny_instances(1)[0]
+    st = milp.structure(inst, "voi")
+    top = st.best_worth()[1:].min()
+    assert milp.build_covering(inst, "min-voi", float(np.nextafter(st.candidates().max(), np.inf))) is None
+    assert milp.build_covering(inst, "min-voi", float(top)) is not None

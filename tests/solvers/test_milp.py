@@ -1,0 +1,112 @@
+"""The exact MILP solver: agreement with brute force, time limits, Ctrl-C, the CLI's bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+
+import pytest
+from bruteforce import brute_force
+from conftest import tiny_instances
+
+import voiopt
+from voiopt.cli import main
+from voiopt.errors import PlanError
+from voiopt.result import OPTIMAL_RTOL
+from voiopt.solvers.milp import solve
+
+TINY = tiny_instances(30)
+
+
+def run_cli(argv: list[str]) -> int:
+    """The exit code of ``voiopt ARGV`` (argparse's own errors exit through SystemExit)."""
+    try:
+        return main(argv)
+    except SystemExit as e:
+        return int(e.code)
+
+
+@pytest.fixture(scope="module")
+def hard_instance():
+    return voiopt.generate(4, 30, seed=7, name="hard")
+
+
+@pytest.mark.parametrize("objective", list(voiopt.OBJECTIVES))
+def test_agrees_with_brute_force_on_30_tiny_instances(objective):
+    """Including min-VoI optima far below 1 bit/s and transmit powers of 0.01 and 0.001 W."""
+    small = 0
+    for inst in TINY:
+        best, _ = brute_force(inst, objective)
+        r = solve(inst, objective)
+        assert r.status == "optimal", (inst.name, r.solver)
+        assert r.value == pytest.approx(best, rel=1e-6, abs=0), inst.name
+        assert r.gap <= OPTIMAL_RTOL
+        small += objective == "min-voi" and best < 1
+    if objective == "min-voi":
+        assert small >= 3  # the low-VoI cases are really there
+
+
+def test_warm_start_plan_is_used_and_checked(case_study):
+    first = solve(case_study, "min-voi")
+    again = solve(case_study, "min-voi", warm_start=first.plan)
+    assert again.status == "optimal" and again.value == pytest.approx(first.value, rel=1e-12)
+    assert again.solver["plan_source"] == "warm start"
+    bad = voiopt.Plan(first.plan.positions[:-1], first.plan.schedule[:-1])
+    with pytest.raises(PlanError, match="horizon"):
+        solve(case_study, "min-voi", warm_start=bad)
+
+
+def test_time_limit_returns_plan_bound_and_gap(hard_instance):
+    r = solve(hard_instance, "mean-min-voi", time_limit=1.0)
+    assert r.status == "time_limit"
+    assert r.runtime_s < 10
+    metrics = voiopt.evaluate(hard_instance, r.plan)  # a legal plan
+    assert metrics["mean-min-voi"] == r.value
+    assert r.bound is not None and r.bound >= r.value and r.gap > 0
+    assert {"nodes", "model", "build_s", "solve_s", "options"} <= set(r.solver)
+
+
+def test_ctrl_c_stops_like_a_time_limit(hard_instance):
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        r = solve(hard_instance, "mean-max-aoi", time_limit=30)
+    finally:
+        timer.cancel()
+    assert r.status == "time_limit" and r.solver.get("stopped") == "interrupted"
+    assert r.runtime_s < 10 and r.bound <= r.value
+
+
+def test_cli_solve_json(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    code = main(["solve", "instances/case-study.json", "--method", "milp", "--objective", "max-aoi",
+                 "--json", "-o", str(out)])
+    assert code == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed["status"] == "optimal" and printed == json.loads(out.read_text())
+    assert printed["value"] == printed["metrics"]["max-aoi"] == printed["bound"]
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--objective", "max-voi"], "invalid choice"),
+        (["--method", "simplex"], "unknown method"),
+        (["--time-limit", "-1"], "--time-limit"),
+        (["--warm-start", "no-such-plan.json"], "no such file"),
+    ],
+)
+def test_cli_bad_input_exits_2_with_one_line(capsys, args, message):
+    assert run_cli(["solve", "instances/case-study.json", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and "\n" not in err and "Traceback" not in err
+
+
+def test_cli_unreadable_warm_start(tmp_path, capsys):
+    bad = tmp_path / "plan.json"
+    bad.write_text("{not json")
+    assert run_cli(["solve", "instances/case-study.json", "--warm-start", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "invalid JSON" in err and "\n" not in err
