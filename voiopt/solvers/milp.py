@@ -15,6 +15,7 @@ returns the best plan found (at worst the warm start) with the proven bound.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from typing import Any
 
@@ -65,6 +66,8 @@ def solve(
     deadline = None if time_limit is None else t0 + time_limit
     run = _Run(instance, objective, progress, deadline, gap, threads)
     run.offer_plan(*_warm_plan(instance, objective, warm_start), source="warm start")
+    run.details["warm_start"] = "given" if warm_start is not None else "greedy"
+    run.details["warm_start_s"] = time.perf_counter() - t0
     with stop_on_interrupt() as stop:
         run.stop = stop
         if objective in model_mod.PER_SLOT_OBJECTIVES:
@@ -97,6 +100,16 @@ def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None) -> t
     lat = lattice_mod.build(instance)
     T = instance.horizon
     return np.full(T, lat.start, dtype=np.int64), np.full(T, -1, dtype=np.int64)
+
+
+def _stopped_statuses() -> tuple:
+    import highspy
+
+    K = highspy.HighsModelStatus
+    return (K.kTimeLimit, K.kInterrupt, K.kSolutionLimit, K.kIterationLimit)
+
+
+_STOPPED = _stopped_statuses()
 
 
 class _Run:
@@ -147,12 +160,19 @@ class _Run:
 
         t = time.perf_counter()
         h = highspy.Highs()
-        h.setOptionValue("output_flag", bool(self.progress))
+        # progress: HiGHS's log of the one big MILP, on stderr (stdout stays for results)
+        log = self.progress and model.aggregate != "covering"
+        h.setOptionValue("output_flag", log)
+        if log:
+            h.setOptionValue("log_to_console", False)
+            h.cbLogging.subscribe(lambda event: sys.stderr.write(event.message))
         h.setOptionValue("mip_rel_gap", self.gap)
         for k, v in TOLERANCES.items():
             h.setOptionValue(k, v)
         h.setOptionValue("random_seed", 0)
         if self.threads is not None:
+            # HiGHS keeps one global thread pool; a different size needs a fresh one
+            highspy.Highs.resetGlobalScheduler(True)
             h.setOptionValue("threads", int(self.threads))
         r = self.remaining()
         if r is not None:
@@ -221,10 +241,18 @@ class _Run:
             elif ms == highspy.HighsModelStatus.kInfeasible:
                 hi = mid - 1
                 steps.append("infeasible")
-            else:  # time limit or interrupt before a decision
+            elif ms in _STOPPED:  # time limit or interrupt before a decision
                 status = "time_limit"
-                steps.append(str(ms).split(".")[-1])
+                steps.append(h.modelStatusToString(ms))
                 break
+            else:
+                raise RuntimeError(f"milp: HiGHS ended a covering problem with {h.modelStatusToString(ms)!r}")
+            if self.progress:
+                print(
+                    f"milp {self.objective}: threshold {self.worth(float(cand[mid])):.6g} {steps[-1]}; "
+                    f"best {self.best_value:.6g}, bound {self.worth(float(cand[hi])):.6g}",
+                    file=sys.stderr, flush=True,
+                )
         self.details["bisection"] = steps
         bound_worth = float(cand[hi]) if hi >= 0 else float(cand[0])
         return status, self.worth(bound_worth)
@@ -257,7 +285,7 @@ class _Run:
         if ms == K.kOptimal:
             status = "optimal"
             bound = self._patch(model, bound)
-        elif ms in (K.kTimeLimit, K.kInterrupt, K.kSolutionLimit, K.kIterationLimit):
+        elif ms in _STOPPED:
             status = "time_limit"
         else:  # keep the best plan, claim nothing
             self.details["note"] = f"HiGHS ended with {self.details['highs_status']!r}"
