@@ -72,6 +72,18 @@ def _child(mode, rank, acc, u, up_rank_here, W, tau, child):
     return _combine(mode, acc, w)
 
 
+LANE_HIGH = np.uint64(0x8000800080008000)
+
+
+@njit(cache=True, inline="always")
+def _ranks_geq(a, b):
+    """Every 16-bit lane of a >= that of b (lanes < 2**15): no borrow crosses a lane."""
+    for w in range(a.shape[0]):
+        if ((a[w] | LANE_HIGH) - b[w]) & LANE_HIGH != LANE_HIGH:
+            return False
+    return True
+
+
 @njit(cache=True)
 def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse):
     """Admissible bound on the final value of a label in slot tau at q, and collapse in place.
@@ -163,6 +175,8 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
     out_up = np.empty(cap, dtype=np.int8)
     out_pos = np.empty(cap, dtype=np.int32)
     counts = np.zeros(q_hi - q_lo, dtype=np.int64)
+    NW = (N + 3) // 4  # ranks packed four 16-bit lanes to a word for the dominance test
+    c_key = np.zeros((max_m, NW), dtype=np.uint64)
     c_rank = np.empty((max_m, N), dtype=np.int16)
     c_acc = np.empty(max_m)
     c_ub = np.empty(max_m)
@@ -195,8 +209,11 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
                     if ub <= incumbent:
                         continue
                     s = 0.0
+                    for w in range(NW):
+                        c_key[m, w] = 0
                     for i in range(N):
                         c_rank[m, i] = child[i]
+                        c_key[m, i // 4] |= np.uint64(child[i]) << np.uint64(16 * (i % 4))
                         s += child[i]
                     c_sum[m] = -s
                     c_acc[m] = -a
@@ -211,19 +228,16 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
         o1 = np.argsort(c_sum[:m], kind="mergesort")
         o2 = np.argsort(c_acc[o1], kind="mergesort")
         nk = 0
+        last = 0  # the latest dominating label is tried first: dominators come in runs
         for j in range(m):
             c = o1[o2[j]]
-            dominated = False
-            for h in range(nk):
-                d = kept[h]
-                ok = True
-                for i in range(N):
-                    if c_rank[d, i] < c_rank[c, i]:
-                        ok = False
+            dominated = nk > 0 and _ranks_geq(c_key[kept[last]], c_key[c])
+            if not dominated:
+                for h in range(nk):
+                    if _ranks_geq(c_key[kept[h]], c_key[c]):
+                        dominated = True
+                        last = h
                         break
-                if ok:
-                    dominated = True
-                    break
             if not dominated:
                 kept[nk] = c
                 nk += 1

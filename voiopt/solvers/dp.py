@@ -16,6 +16,7 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import physics
+from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.interrupt import progress_bar, stop_on_interrupt
 from voiopt.result import Plan, Result
@@ -24,6 +25,8 @@ from voiopt.simulate import simulate
 AOI_OBJECTIVES = ("max-aoi", "mean-max-aoi")
 CHUNK_WORK = 400_000  # (label, upload) pairs per kernel call: the granularity of time checks
 DEFAULT_BEAM = 16
+QUICK_BEAM = 2  # labels per point of the beam pass that gives the first incumbent
+FAST_BUDGET = 50_000  # labels of the first, unbounded pass before incumbents are computed
 
 
 @dataclass
@@ -77,13 +80,15 @@ def build_tables(instance: Instance, objective: str) -> Tables:
         rank_of = {c: r for r, c in enumerate(cand_lists[i])}
         s0, d0 = -sensor.initial_aoi, (0.0 if aoi else instance.initial_distance(i))
         initial_rank[i] = rank_of[(s0, d0)]
-        for r, (s, d) in enumerate(cand_lists[i]):
-            later = t_grid > s
-            age = t_grid[later] - s
-            if aoi:
-                W[i, r, later] = -age
-            else:
-                W[i, r, later] = physics.voi(age, d, sensor.rho, sensor.power_w, instance.channel)
+        slots = np.array([s for s, _ in cand_lists[i]], dtype=float)[:, None]
+        dists = np.array([d for _, d in cand_lists[i]])[:, None]
+        age = t_grid[None, :] - slots  # (candidates, T+1); only age >= 1 is ever looked up
+        later = age >= 1
+        if aoi:
+            values = -age
+        else:
+            values = physics.voi(np.maximum(age, 1), dists, sensor.rho, sensor.power_w, instance.channel)
+        W[i, : len(slots)] = np.where(later, values, np.inf)
         for p in np.flatnonzero(lat.in_range[i]):
             d = 0.0 if aoi else float(lat.distance[i, p])
             for s in range(T):
@@ -116,12 +121,14 @@ class SearchOutcome:
     peak_layer: int
     peak_bytes: int
     slots_done: int
+    stopped: str | None = None  # why an incomplete pass stopped
 
 
 def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = True, bounding: bool = True,
-           deadline: float | None = None, memory_bytes: float | None = None, stop=None,
-           progress: bool = False) -> SearchOutcome:
-    """One forward pass. ``beam`` > 0 keeps only that many labels per point (a heuristic)."""
+           deadline: float | None = None, memory_bytes: float | None = None, label_budget: int | None = None,
+           stop=None, progress: bool = False) -> SearchOutcome:
+    """One forward pass. ``beam`` > 0 keeps only that many labels per point (a heuristic).
+    It stops early, incomplete, on the deadline, the memory, Ctrl-C or more than ``label_budget`` labels."""
     from voiopt.solvers import _dp_core as core
 
     T, n, N = tab.up_rank.shape
@@ -167,11 +174,13 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                 parts.append(out)
                 generated += int(out[7])
                 q_lo = q_hi
-                if q_lo < n and _must_stop(deadline, stop, memory_bytes, stored + sum(p[0].nbytes for p in parts)):
-                    stopped = True
-                    break
+                if q_lo < n:
+                    stopped = _must_stop(deadline, stop, memory_bytes, stored + sum(p[0].nbytes for p in parts),
+                                         label_budget, labels + sum(len(p[1]) for p in parts))
+                    if stopped:
+                        break
             if stopped:
-                return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t)
+                return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stopped)
             new_ranks = np.concatenate([p[0] for p in parts])
             acc = np.concatenate([p[1] for p in parts])
             new_ub = np.concatenate([p[2] for p in parts])
@@ -188,8 +197,9 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels")
             if len(acc) == 0:
                 return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, t + 1)
-            if t + 1 < T - 1 and _must_stop(deadline, stop, memory_bytes, stored + layer_bytes):
-                return _incomplete(ub, ub > inc, labels, generated, peak_layer, peak_bytes, t + 1)
+            stopped = _must_stop(deadline, stop, memory_bytes, stored + layer_bytes, label_budget, labels)
+            if t + 1 < T - 1 and stopped:
+                return _incomplete(ub, ub > inc, labels, generated, peak_layer, peak_bytes, t + 1, stopped)
         keep = np.flatnonzero(ub > inc)
         value, l, u = core.finish(tab.mode, T - 1, ranks[keep], acc[keep], pos[keep], tab.up_rank,
                                   tab.in_range_list, tab.in_range_count, tab.W)
@@ -211,17 +221,21 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                          peak_bytes, T)
 
 
-def _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t) -> SearchOutcome:
+def _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stopped) -> SearchOutcome:
     open_bound = float(ub[keep].max()) if keep.any() else -np.inf
-    return SearchOutcome(-np.inf, None, False, open_bound, labels, generated, peak_layer, peak_bytes, t)
+    return SearchOutcome(-np.inf, None, False, open_bound, labels, generated, peak_layer, peak_bytes, t, stopped)
 
 
-def _must_stop(deadline, stop, memory_bytes, used) -> bool:
+def _must_stop(deadline, stop, memory_bytes, used, label_budget, labels) -> str | None:
     if stop is not None and stop.requested:
-        return True
+        return "interrupted"
     if deadline is not None and time.perf_counter() >= deadline:
-        return True
-    return memory_bytes is not None and used >= memory_bytes
+        return "time limit"
+    if memory_bytes is not None and used >= memory_bytes:
+        return "memory limit"
+    if label_budget is not None and labels > label_budget:
+        return "label budget"
+    return None
 
 
 def _internal(tab: Tables, value: float) -> float:
@@ -244,77 +258,97 @@ def solve(
     greedy: bool = True,
     collapse: bool = True,
     bounding: bool = True,
+    fast_budget: int = FAST_BUDGET,
+    quick_beam: int = QUICK_BEAM,
 ) -> Result:
     """Optimal plan by label setting; on a time or memory limit (or Ctrl-C) the best plan and a
-    proven bound with status time_limit. ``beam``, ``greedy``, ``collapse`` and ``bounding``
-    switch ingredients off for measurements (docs/dp.md); the defaults are the fast exact set."""
+    proven bound with status time_limit.
+
+    Small instances are solved by one pass with no incumbent but the warm start: if that pass
+    needs more than ``fast_budget`` labels it is abandoned, incumbents are computed (greedy and
+    a beam pass of width ``beam``) and a bounded pass proves the optimum. ``greedy``,
+    ``collapse`` and ``bounding`` switch ingredients off for measurements (docs/dp.md)."""
+    if time_limit is not None and not time_limit > 0:
+        raise OptionError(f"--time-limit: must be > 0 seconds, got {time_limit:g}")
+    if memory_limit is not None and not memory_limit > 0:
+        raise OptionError(f"--memory-limit: must be > 0 GB, got {memory_limit:g}")
     t0 = time.perf_counter()
     deadline = None if time_limit is None else t0 + float(time_limit)
     memory_bytes = None if memory_limit is None else float(memory_limit) * 1e9
     tab = build_tables(instance, objective)
 
-    # incumbents: a warm start, the greedy baseline, a beam pass of this same programme
     best_plan: Plan | None = None
-    best_value = -np.inf  # internal
-    sources = []
+    best_value = -np.inf  # internal (maximised) units
+    incumbents: list[tuple[str, float]] = []
 
     def offer(plan: Plan, source: str) -> None:
         nonlocal best_plan, best_value
         v = _internal(tab, simulate(instance, plan).metrics[objective])
         if best_plan is None or v > best_value:
             best_plan, best_value = plan, v
-        sources.append((source, _external(tab, v)))
+        incumbents.append((source, _external(tab, v)))
+
+    def inc() -> float:
+        return best_value if bounding else -np.inf
 
     if warm_start is not None:
         offer(warm_start, "warm_start")
-    if greedy:
-        try:
-            from voiopt.solvers.baselines import greedy as greedy_solver
-        except ImportError:  # the baseline is optional for the DP
-            greedy_solver = None
-        if greedy_solver is not None:
-            offer(greedy_solver(instance, objective).plan, "greedy")
+    passes = []
     with stop_on_interrupt() as stop:
-        if beam > 0:
-            out = search(tab, best_value if bounding else -np.inf, beam=beam, collapse=collapse,
-                         bounding=bounding, stop=stop)
-            if out.plan is not None:
-                offer(Plan.from_indices(instance, *out.plan), f"beam {beam}")
-        if best_plan is None:  # the entity stays and uploads nothing: always legal
-            offer(Plan.from_indices(instance, np.full(instance.horizon, tab.start), np.full(instance.horizon, -1)),
-                  "idle")
-        t_inc = time.perf_counter() - t0
-        out = search(tab, best_value, collapse=collapse, bounding=bounding, deadline=deadline,
-                     memory_bytes=memory_bytes, stop=stop, progress=progress)
-        interrupted = stop.requested
+        limits = dict(collapse=collapse, bounding=bounding, deadline=deadline, memory_bytes=memory_bytes, stop=stop)
+        if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
+            b = search(tab, inc(), beam=quick_beam, **limits)
+            passes.append((f"beam {quick_beam}", b))
+            if b.plan is not None:
+                offer(Plan.from_indices(instance, *b.plan), f"beam {quick_beam}")
+        out = search(tab, inc(), label_budget=fast_budget, progress=progress, **limits)
+        passes.append(("fast", out))
+        if not out.complete:
+            plan = _greedy_plan(instance, objective) if greedy else None
+            if plan is not None:
+                offer(plan, "greedy")
+            if beam > 0 and out.stopped == "label budget":
+                b = search(tab, inc(), beam=beam, **limits)
+                passes.append((f"beam {beam}", b))
+                if b.plan is not None:
+                    offer(Plan.from_indices(instance, *b.plan), f"beam {beam}")
+            if out.stopped == "label budget":
+                out = search(tab, inc(), progress=progress, **limits)
+                passes.append(("bounded", out))
     if out.plan is not None:
         plan = Plan.from_indices(instance, *out.plan)
         found = _internal(tab, simulate(instance, plan).metrics[objective])
-        if found > best_value:
+        incumbents.append(("dp", _external(tab, found)))
+        if best_plan is None or found > best_value:
             best_plan, best_value = plan, found
         else:  # the incumbent matches to rounding: keep it, count the DP value in the bound
             best_value = max(best_value, out.value)
+    if best_plan is None:  # stopped before any plan: the entity stays and uploads nothing
+        T = instance.horizon
+        offer(Plan.from_indices(instance, np.full(T, tab.start), np.full(T, -1)), "idle")
     if out.complete:
-        bound_internal = max(best_value, out.value)
-        status = "optimal"
+        bound_internal, status = max(best_value, out.value), "optimal"
     else:
-        bound_internal = max(best_value, out.open_bound)
-        status = "time_limit"
-    bound = _external(tab, bound_internal)
+        bound_internal, status = max(best_value, out.open_bound), "time_limit"
     solver = {
-        "labels": out.labels,
-        "children_generated": out.generated,
-        "peak_layer_labels": out.peak_layer,
-        "peak_label_bytes": out.peak_bytes,
-        "slots_done": out.slots_done,
-        "incumbents": sources,
-        "incumbent_time_s": t_inc,
+        "passes": {name: dict(labels=p.labels, children_generated=p.generated, peak_layer_labels=p.peak_layer,
+                              slots_done=p.slots_done, complete=p.complete)
+                   for name, p in passes},
+        "labels": sum(p.labels for _, p in passes),
+        "peak_label_bytes": max(p.peak_bytes for _, p in passes),
+        "incumbents": incumbents,
         "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding,
-                    "time_limit": time_limit, "memory_limit": memory_limit},
+                    "fast_budget": fast_budget, "time_limit": time_limit, "memory_limit": memory_limit},
     }
-    if interrupted:
-        solver["stopped"] = "interrupted"
-    elif not out.complete:
-        solver["stopped"] = "time limit" if deadline is not None and time.perf_counter() >= deadline else "memory limit"
-    return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=bound,
+    if not out.complete:
+        solver["stopped"] = out.stopped
+    return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=_external(tab, bound_internal),
                             runtime_s=time.perf_counter() - t0, solver=solver)
+
+
+def _greedy_plan(instance: Instance, objective: str) -> Plan | None:
+    try:
+        from voiopt.solvers.baselines import greedy
+    except ImportError:  # the baseline is optional for the DP
+        return None
+    return greedy(instance, objective).plan

@@ -1,0 +1,129 @@
+"""How far the exact label-setting programme (method ``dp``) certifies optimality.
+
+Per setting and objective it prints how many networks were certified optimal, the median and
+maximum wall time, the peak label memory, and the median proven gap of those not certified.
+One process, one core, networks solved one after another. Targets (issue 5):
+
+    paper  N = 4, T = 30, 5 x 5, 40 networks          all certified, median < 0.2 s, max < 2 s
+    n6     N = 6, T = 30, 5 x 5, 20 networks, 60 s    >= 18 certified
+    t50    N = 4, T = 50, 10 x 10, 20 networks, 60 s  >= 18 certified
+    n8     N = 8, T = 30, 5 x 5, 20 networks, 60 s    median proven gap < 1 %
+
+Usage:
+    python benchmarks/exact_scale.py                       # everything (long: run it in the background)
+    python benchmarks/exact_scale.py --settings paper      # one part
+    python benchmarks/exact_scale.py --settings n6,n8 --networks 5 --objectives mean-min-voi
+    python benchmarks/exact_scale.py --settings paper --no-collapse   # measure one ingredient
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import statistics
+import sys
+import time
+
+import voiopt
+from voiopt.simulate import OBJECTIVES
+from voiopt.solvers import dp
+
+SETTINGS = {
+    "paper": dict(n_sensors=4, horizon=30, size=5.0, networks=40, time_limit=None),
+    "n6": dict(n_sensors=6, horizon=30, size=5.0, networks=20, time_limit=60.0),
+    "t50": dict(n_sensors=4, horizon=50, size=10.0, networks=20, time_limit=60.0),
+    "n8": dict(n_sensors=8, horizon=30, size=5.0, networks=20, time_limit=60.0),
+}
+
+
+def networks(name: str, count: int, seed: int) -> list[voiopt.Instance]:
+    s = SETTINGS[name]
+    return voiopt.generate_set(count, seed=seed, n_sensors=s["n_sensors"], horizon=s["horizon"],
+                               width=s["size"], height=s["size"], rho=(0.0, 1.0), power_w=1.0,
+                               name=f"{name}-seed{seed}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--settings", default=",".join(SETTINGS), help=f"comma list of {', '.join(SETTINGS)}")
+    ap.add_argument("--networks", type=int, help="networks per setting (default: the setting's count)")
+    ap.add_argument("--objectives", default=",".join(OBJECTIVES))
+    ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--time-limit", type=float, help="override the settings' time limits (seconds)")
+    ap.add_argument("--beam", type=int, default=dp.DEFAULT_BEAM, help="beam width of the incumbent pass (0: off)")
+    ap.add_argument("--no-greedy", action="store_true", help="no greedy incumbent")
+    ap.add_argument("--no-collapse", action="store_true", help="never collapse a sensor")
+    ap.add_argument("--no-bounding", action="store_true", help="no bound pruning (dominance only)")
+    ap.add_argument("--verbose", "-v", action="store_true", help="one line per network")
+    ap.add_argument("--json", help="also write every run to this JSON file")
+    args = ap.parse_args(argv)
+    options = dict(beam=args.beam, greedy=not args.no_greedy, collapse=not args.no_collapse,
+                   bounding=not args.no_bounding)
+    settings = [s for s in args.settings.split(",") if s]
+    objectives = [o for o in args.objectives.split(",") if o]
+    for s in settings:
+        if s not in SETTINGS:
+            ap.error(f"--settings: unknown setting {s!r} (choose from {', '.join(SETTINGS)})")
+    for o in objectives:
+        if o not in OBJECTIVES:
+            ap.error(f"--objectives: unknown objective {o!r}")
+
+    t = time.perf_counter()
+    for o in OBJECTIVES:  # compile (or load the numba cache) before anything is timed
+        dp.solve(voiopt.generate(2, 4, width=2, height=2, seed=0), o)
+    print(f"# dp options {options}; warm-up (numba compile or cache load) {time.perf_counter() - t:.1f} s",
+          flush=True)
+
+    rows, runs = [], []
+    for name in settings:
+        spec = SETTINGS[name]
+        count = args.networks or spec["networks"]
+        limit = args.time_limit if args.time_limit is not None else spec["time_limit"]
+        insts = networks(name, count, args.seed)
+        for objective in objectives:
+            results = []
+            for inst in insts:
+                r = dp.solve(inst, objective, time_limit=limit, **options)
+                results.append(r)
+                runs.append(dict(setting=name, network=inst.name, objective=objective, status=r.status,
+                                 value=r.value, bound=r.bound, gap=r.gap, runtime_s=r.runtime_s,
+                                 labels=r.solver["labels"], peak_label_bytes=r.solver["peak_label_bytes"]))
+                if args.verbose:
+                    print(f"  {name} {inst.name} {objective}: {r.status} {r.runtime_s:.3f} s value {r.value:.6g} "
+                          f"gap {r.gap:.3g} labels {r.solver['labels']:,}", flush=True)
+            times = [r.runtime_s for r in results]
+            open_gaps = [r.gap for r in results if r.status != "optimal"]
+            rows.append(dict(
+                setting=f"{name} (N={spec['n_sensors']}, T={spec['horizon']}, {spec['size']:g}x{spec['size']:g})",
+                objective=objective,
+                certified=f"{sum(r.status == 'optimal' for r in results)}/{len(results)}",
+                median=statistics.median(times), max=max(times),
+                peak_mb=max(r.solver["peak_label_bytes"] for r in results) / 1e6,
+                gap=statistics.median(open_gaps) if open_gaps else None,
+                gap_all=statistics.median(r.gap for r in results),
+                limit=limit,
+            ))
+            _print_row(rows[-1], header=len(rows) == 1)
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"\nprocess peak RSS {rss:.0f} MB (numba, numpy and the labels together)")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(dict(options=options, seed=args.seed, rows=rows, runs=runs), f, indent=1)
+    return 0
+
+
+def _print_row(row: dict, header: bool) -> None:
+    if header:
+        print("| setting | objective | certified | median s | max s | peak label MB | median gap of uncertified "
+              "| median gap of all | limit s |")
+        print("|---|---|---|---|---|---|---|---|---|")
+    gap = "-" if row["gap"] is None else f"{100 * row['gap']:.3g} %"
+    gap_all = f"{100 * row['gap_all']:.3g} %"
+    limit = "-" if row["limit"] is None else f"{row['limit']:g}"
+    print(f"| {row['setting']} | {row['objective']} | {row['certified']} | {row['median']:.3f} | {row['max']:.3f} | "
+          f"{row['peak_mb']:.1f} | {gap} | {gap_all} | {limit} |", flush=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

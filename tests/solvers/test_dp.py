@@ -1,0 +1,112 @@
+"""The label-setting programme against the brute force, the MILP, its limits and its options."""
+
+from __future__ import annotations
+
+import importlib.util
+
+import pytest
+from bruteforce import brute_force
+from conftest import tiny_instances
+
+import voiopt
+from voiopt.errors import OptionError
+from voiopt.simulate import OBJECTIVES
+from voiopt.solvers import dp
+
+RTOL = 1e-6
+
+
+def close(a: float, b: float) -> bool:
+    return abs(a - b) <= RTOL * max(abs(a), abs(b), 1e-300)
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    return tiny_instances(30, seed=12345)
+
+
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+def test_dp_equals_brute_force(tiny, objective):
+    for inst in tiny:
+        value, _ = brute_force(inst, objective)
+        r = dp.solve(inst, objective)
+        assert r.status == "optimal", (inst.name, r.solver)
+        assert close(r.value, value), (inst.name, r.value, value)
+        assert close(r.bound, r.value)
+
+
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+@pytest.mark.parametrize(
+    "options",
+    [
+        dict(greedy=False, beam=0),  # no incumbent: dominance and collapse alone
+        dict(greedy=False, beam=0, collapse=False),
+        dict(greedy=False, beam=0, bounding=False, collapse=False),  # plain dominance
+    ],
+    ids=["no-incumbent", "no-collapse", "dominance-only"],
+)
+def test_every_ingredient_is_exact_on_its_own(objective, options):
+    for inst in tiny_instances(12, seed=777):
+        value, _ = brute_force(inst, objective)
+        r = dp.solve(inst, objective, **options)
+        assert r.status == "optimal" and close(r.value, value), (inst.name, options, r.value, value)
+
+
+def test_through_the_registry_and_deterministic(case_study):
+    a = voiopt.solve(case_study, method="dp", objective="mean-min-voi")
+    b = voiopt.solve(case_study, method="dp", objective="mean-min-voi")
+    assert a.status == "optimal" and a.method == "dp"
+    assert a.plan == b.plan and a.value == b.value
+
+
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+def test_time_limit_returns_a_legal_plan_and_a_valid_bound(objective):
+    inst = voiopt.generate(8, 40, width=8, height=8, seed=3)
+    r = dp.solve(inst, objective, time_limit=1e-3)
+    voiopt.evaluate(inst, r.plan)  # legal (raises otherwise)
+    if OBJECTIVES[objective] == "max":
+        assert r.bound >= r.value
+    else:
+        assert r.bound <= r.value
+    if objective.startswith("mean"):
+        assert r.status == "time_limit" and r.solver["stopped"] == "time limit"
+    else:  # the bottleneck objectives may be closed by the incumbent and the first bound at once
+        assert r.status == "time_limit" or (r.status == "optimal" and r.gap == 0)
+
+
+def test_memory_limit_stops_like_a_time_limit():
+    inst = voiopt.generate(6, 30, seed=5)
+    r = dp.solve(inst, "mean-min-voi", memory_limit=1e-9)
+    assert r.status == "time_limit" and r.solver["stopped"] == "memory limit"
+    assert r.bound >= r.value
+
+
+def test_warm_start_is_used_and_optimum_unchanged(case_study):
+    greedy = voiopt.solve(case_study, method="greedy", objective="mean-max-aoi")
+    r = dp.solve(case_study, "mean-max-aoi", warm_start=greedy.plan)
+    plain = dp.solve(case_study, "mean-max-aoi", greedy=False)
+    assert r.solver["incumbents"][0][0] == "warm_start"
+    assert r.status == plain.status == "optimal" and close(r.value, plain.value)
+
+
+def test_bad_limits_are_rejected(case_study):
+    with pytest.raises(OptionError):
+        dp.solve(case_study, "min-voi", time_limit=0)
+    with pytest.raises(OptionError):
+        dp.solve(case_study, "min-voi", memory_limit=-1)
+
+
+HAVE_MILP = importlib.util.find_spec("voiopt.solvers.milp") is not None and importlib.util.find_spec("highspy")
+
+
+@pytest.mark.skipif(not HAVE_MILP, reason="the MILP solver is not in this tree")
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+def test_dp_and_milp_agree_and_milp_accepts_the_dp_plan(objective):
+    for seed in range(3):
+        inst = voiopt.generate(2, 5, width=2, height=2, seed=100 + seed, rho=(0.3, 0.9))
+        d = dp.solve(inst, objective)
+        m = voiopt.solve(inst, method="milp", objective=objective, time_limit=60)
+        assert d.status == "optimal" and m.status == "optimal", (inst.name, m.solver)
+        assert close(d.value, m.value), (inst.name, d.value, m.value)
+        w = voiopt.solve(inst, method="milp", objective=objective, time_limit=60, warm_start=d.plan)
+        assert w.status == "optimal" and close(w.value, d.value)
