@@ -60,6 +60,16 @@ def seed_state(seed: int) -> int:
 
 # ----------------------------------------------------------------------------- hash table
 
+# A slot of ``table`` (uint64, one row per slot) is the W key words, then META = 1 + the row of
+# the state's Q-values in ``pool`` shifted left by _ARG_BITS, or'ed with the index of the
+# state's first maximal Q-value (META 0 = empty slot), then the bits of that maximal Q-value
+# (read and written through ``tablef``, a float64 view of the same memory). Keeping the
+# greedy action and max_a Q(s, a) next to the key means a step's critical path is one hash
+# probe; the Q row itself is read only to update one value, off that path.
+_ARG_BITS = np.uint64(16)
+_ARG_MASK = np.uint64((1 << 16) - 1)
+MAX_ACTIONS = 1 << 16
+
 
 @nb.njit(cache=True, inline="always")
 def _encode(p, aoi, qidx, slot, field_word, field_shift, key):
@@ -83,42 +93,50 @@ def _hash(key):
 
 @nb.njit(cache=True, inline="always")
 def _find(key, table):
-    """(slot, Q row or -1): where the key is, or the empty slot where it would go.
-    A slot is its key words followed by 1 + its row in the Q pool (0 = empty)."""
+    """(slot, found): where the key is, or the empty slot where it would go."""
     mask = table.shape[0] - 1
     W = key.shape[0]
     s = np.int64(_hash(key) & np.uint64(mask))
     while True:
-        tag = table[s, W]
-        if tag == 0:
-            return s, -1
+        if table[s, W] == 0:
+            return s, False
         same = True
         for w in range(W):
             if table[s, w] != key[w]:
                 same = False
                 break
         if same:
-            return s, np.int64(tag) - 1
+            return s, True
         s = (s + 1) & mask
 
 
 @nb.njit(cache=True, inline="always")
-def _insert(table, s, key, pool, counts, n, q_init):
-    """Store key in empty slot s with n fresh Q-values; return its row."""
+def _row(table, s):
+    """The start of slot s's Q-values in the pool."""
+    return np.int64(table[s, table.shape[1] - 2] >> _ARG_BITS) - 1
+
+
+@nb.njit(cache=True, inline="always")
+def _greedy(table, s):
+    """The first action of maximal Q-value in slot s."""
+    return np.int64(table[s, table.shape[1] - 2] & _ARG_MASK)
+
+
+@nb.njit(cache=True, inline="always")
+def _insert(table, tablef, s, key, pool, used, n, q_init):
+    """Store key in empty slot s with n fresh Q-values at pool[used:]."""
     W = key.shape[0]
-    row = counts[1]
     for w in range(W):
         table[s, w] = key[w]
-    table[s, W] = np.uint64(row + 1)
-    pool[row:row + n] = q_init
-    counts[0] += 1
-    counts[1] += n
-    return row
+    table[s, W] = np.uint64(used + 1) << _ARG_BITS  # greedy action 0
+    tablef[s, W + 1] = q_init
+    for j in range(n):
+        pool[used + j] = q_init
 
 
 @nb.njit(cache=True)
 def _rehash(old, table):
-    W = table.shape[1] - 1
+    W = table.shape[1] - 2
     mask = table.shape[0] - 1
     for o in range(old.shape[0]):
         if old[o, W] == 0:
@@ -136,48 +154,76 @@ def _rehash(old, table):
 def _train(
     n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
     start, initial_aoi, n_actions, action_upload, action_next, voi_over_b,
-    field_word, field_shift, table, pool, counts, rng,
+    field_word, field_shift, field_width, table, tablef, pool, counts, rng,
 ):
     """Run up to n_episodes episodes; stop early (at an episode boundary) when the table could
-    overflow during the next one. counts = [entries, pool used]; eps[0] is updated in place.
-    Returns the number of episodes run."""
+    overflow during the next one. counts = [entries, pool used]; eps[0] and rng[0] are updated
+    in place. Returns the number of episodes run."""
     N = initial_aoi.shape[0]
     K = action_upload.shape[1]
+    W = table.shape[1] - 2
+    META, QMAX = W, W + 1
+    max_states = MAX_LOAD * table.shape[0]
     aoi = np.empty(N, np.int64)
     qidx = np.empty(N, np.int64)
-    key = np.empty(table.shape[1] - 1, np.uint64)
+    # the packed key is updated in place each step: every age field +1 (and the slot field,
+    # if in the state), then the new position and, on an upload, that sensor's two fields
+    key0 = np.empty(W, np.uint64)
+    _encode(start, initial_aoi, np.zeros(N, np.int64), 0, field_word, field_shift, key0)
+    key = np.empty(W, np.uint64)
+    inc = np.zeros(W, np.uint64)
+    for i in range(N):
+        inc[field_word[1 + 2 * i]] += np.uint64(1) << np.uint64(field_shift[1 + 2 * i])
+    if slot_in_state:
+        inc[field_word[2 * N + 1]] += np.uint64(1) << np.uint64(field_shift[2 * N + 1])
+    clear = np.empty(2 + 2 * N, np.uint64)  # ~(field mask) per field
+    for f in range(2 + 2 * N):
+        clear[f] = ~(((np.uint64(1) << np.uint64(field_width[f])) - np.uint64(1)) << np.uint64(field_shift[f]))
+    pw, ps, pclear = field_word[0], np.uint64(field_shift[0]), clear[0]
+
     bg = beta * gamma
+    state = rng[0]
+    n_states, used = counts[0], counts[1]
     for ep in range(n_episodes):
-        if (counts[0] + horizon + 1 > MAX_LOAD * table.shape[0]
-                or counts[1] + (horizon + 1) * K > pool.shape[0]):
+        if n_states + horizon + 1 > max_states or used + (horizon + 1) * K > pool.shape[0]:
+            rng[0] = state
+            counts[0], counts[1] = n_states, used
             return ep
         p = start
-        aoi[:] = initial_aoi
-        qidx[:] = 0
-        _encode(p, aoi, qidx, 0, field_word, field_shift, key)
-        s, row = _find(key, table)
-        if row < 0:
-            row = _insert(table, s, key, pool, counts, n_actions[p], q_init)
+        for i in range(N):
+            aoi[i] = initial_aoi[i]
+            qidx[i] = 0
+        for w in range(W):
+            key[w] = key0[w]
+        cur, found = _find(key, table)
+        if not found:
+            _insert(table, tablef, cur, key, pool, used, n_actions[p], q_init)
+            n_states += 1
+            used += n_actions[p]
         epsilon = eps[0]
         for t in range(horizon):
-            na = n_actions[p]
-            x = _uniform(rng)
+            # epsilon-greedy: x, and if exploring a second number for the action
+            state += _GOLDEN
+            x = float(_mix(state) >> _S11) * _TWO_M53
             if x < epsilon:
-                k = int(_uniform(rng) * na)
+                state += _GOLDEN
+                k = int(float(_mix(state) >> _S11) * _TWO_M53 * n_actions[p])
             else:
-                k = 0
-                best = pool[row]
-                for j in range(1, na):
-                    if pool[row + j] > best:
-                        best = pool[row + j]
-                        k = j
+                k = _greedy(table, cur)
             u = action_upload[p, k]
             p_next = action_next[p, k]
             for i in range(N):
                 aoi[i] += 1
+            for w in range(W):
+                key[w] += inc[w]
+            key[pw] = (key[pw] & pclear) | (np.uint64(p_next) << ps)
             if u >= 0:
                 aoi[u] = 1
                 qidx[u] = 1 + p
+                fa, fq = 1 + 2 * u, 2 + 2 * u
+                wa, wq = field_word[fa], field_word[fq]
+                key[wa] = (key[wa] & clear[fa]) | (np.uint64(1) << np.uint64(field_shift[fa]))
+                key[wq] = (key[wq] & clear[fq]) | (np.uint64(1 + p) << np.uint64(field_shift[fq]))
             if aoi_reward:
                 worst = aoi[0]
                 for i in range(1, N):
@@ -192,46 +238,61 @@ def _train(
                         r = v
             if u < 0:
                 r = r - penalty
-            _encode(p_next, aoi, qidx, (t + 1) * slot_in_state, field_word, field_shift, key)
-            s, next_row = _find(key, table)
-            nn = n_actions[p_next]
-            if next_row < 0 and t + 1 < horizon:  # s_T is never acted in: not stored
-                next_row = _insert(table, s, key, pool, counts, nn, q_init)
-            if next_row < 0:
-                future = q_init
+            # find s_{t+1}; store it unless it is s_T (never acted in)
+            nxt, found = _find(key, table)
+            if found:
+                future = tablef[nxt, QMAX]
             else:
-                future = pool[next_row]
-                for j in range(1, nn):
-                    if pool[next_row + j] > future:
-                        future = pool[next_row + j]
-            pool[row + k] = (1.0 - beta) * pool[row + k] + beta * r + bg * future
+                future = q_init
+                if t + 1 < horizon:
+                    _insert(table, tablef, nxt, key, pool, used, n_actions[p_next], q_init)
+                    n_states += 1
+                    used += n_actions[p_next]
+            # Q(s_t, k) and the cached first maximum of s_t
+            meta = table[cur, META]
+            row = np.int64(meta >> _ARG_BITS) - 1
+            v = (1.0 - beta) * pool[row + k] + beta * r + bg * future
+            pool[row + k] = v
+            a = np.int64(meta & _ARG_MASK)
+            best = tablef[cur, QMAX]
+            if k == a:
+                if v >= best:
+                    tablef[cur, QMAX] = v
+                else:
+                    a = 0
+                    best = pool[row]
+                    for j in range(1, n_actions[p]):
+                        if pool[row + j] > best:
+                            best = pool[row + j]
+                            a = j
+                    table[cur, META] = (meta & ~_ARG_MASK) | np.uint64(a)
+                    tablef[cur, QMAX] = best
+            elif v > best or (v == best and k < a):
+                table[cur, META] = (meta & ~_ARG_MASK) | np.uint64(k)
+                tablef[cur, QMAX] = v
             p = p_next
-            row = next_row
+            cur = nxt
         eps[0] = eps[0] - eps0
+    rng[0] = state
+    counts[0], counts[1] = n_states, used
     return n_episodes
 
 
 @nb.njit(cache=True)
 def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_upload, action_next,
-             field_word, field_shift, table, pool):
+             field_word, field_shift, table):
     """The greedy plan of the table: first maximal action in each state (action 0 if unseen)."""
     N = initial_aoi.shape[0]
     aoi = initial_aoi.copy()
     qidx = np.zeros(N, np.int64)
-    key = np.empty(table.shape[1] - 1, np.uint64)
+    key = np.empty(table.shape[1] - 2, np.uint64)
     idx = np.empty(horizon, np.int64)
     sched = np.empty(horizon, np.int64)
     p = start
     for t in range(horizon):
         _encode(p, aoi, qidx, t * slot_in_state, field_word, field_shift, key)
-        _, row = _find(key, table)
-        k = 0
-        if row >= 0:
-            best = pool[row]
-            for j in range(1, n_actions[p]):
-                if pool[row + j] > best:
-                    best = pool[row + j]
-                    k = j
+        s, found = _find(key, table)
+        k = _greedy(table, s) if found else 0
         u = action_upload[p, k]
         idx[t] = p
         sched[t] = u
@@ -254,8 +315,10 @@ class QTable:
         self.model = model
         self.q_init = float(q_init)
         self.max_bytes = max_memory_mb * 2**20
+        if model.max_actions > MAX_ACTIONS:
+            raise OptionError(f"at most {MAX_ACTIONS} actions per state, got {model.max_actions}")
         self.counts = np.zeros(2, np.int64)  # [states, Q-values used]
-        self.table = np.zeros((_pow2(slots), model.n_words + 1), np.uint64)
+        self.table = np.zeros((_pow2(slots), model.n_words + 2), np.uint64)
         mean_actions = float(model.n_actions.mean())
         self.pool = np.zeros(int(MAX_LOAD * len(self.table) * mean_actions) + self._margin(), np.float64)
 
@@ -300,7 +363,7 @@ class QTable:
         out = {}
         for slot in self.table[self.table[:, W] != 0]:
             state = m.decode(slot[:W])
-            r = int(slot[W]) - 1
+            r = (int(slot[W]) >> int(_ARG_BITS)) - 1
             out[state] = self.pool[r: r + int(m.n_actions[state[0]])].tolist()
         return out
 
@@ -319,7 +382,8 @@ def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, e
             n_episodes - done, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
             model.reward == "aoi", int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
             model.action_upload, model.action_next, model.voi_over_b, model.field_word,
-            model.field_shift, table.table, table.pool, table.counts, rng,
+            model.field_shift, model.field_width, table.table, table.table.view(np.float64), table.pool,
+            table.counts, rng,
         )
         if done < n_episodes and not table.grow():
             return done, False
@@ -330,7 +394,7 @@ def rollout(model: mdp_mod.MDP, table: QTable) -> tuple[np.ndarray, np.ndarray]:
     """(point indices, schedule with -1) of the greedy plan of the table."""
     return _rollout(
         model.horizon, int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions, model.action_upload,
-        model.action_next, model.field_word, model.field_shift, table.table, table.pool,
+        model.action_next, model.field_word, model.field_shift, table.table,
     )
 
 
