@@ -107,7 +107,7 @@ CASE_STUDY = {
     ],
 }
 
-# An illustrative hand-made plan for the case study (legal, not optimal).
+# An illustrative hand-made plan for the case study (legal; optimal for mean-min-voi only, as dp shows).
 CASE_STUDY_PLAN = {
     "positions": [[0, 2], [1, 2], [1, 3], [2, 3], [2, 4], [3, 4], [4, 4], [4, 3], [4, 2], [4, 1]],
     "schedule": [None, None, 0, 0, 0, 1, 1, None, 2, 2],
