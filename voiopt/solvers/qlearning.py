@@ -136,15 +136,20 @@ def _insert(table, tablef, s, key, pool, used, n, q_init):
 
 @nb.njit(cache=True)
 def _rehash(old, table):
+    """Insert every entry of old into the empty, larger table (whole slots, word by word)."""
     W = table.shape[1] - 2
     mask = table.shape[0] - 1
     for o in range(old.shape[0]):
         if old[o, W] == 0:
             continue
-        s = np.int64(_hash(old[o, :W]) & np.uint64(mask))
+        h = np.uint64(0)
+        for w in range(W):
+            h = _mix(h ^ old[o, w])
+        s = np.int64(h & np.uint64(mask))
         while table[s, W] != 0:
             s = (s + 1) & mask
-        table[s] = old[o]
+        for c in range(W + 2):
+            table[s, c] = old[o, c]
 
 
 # ----------------------------------------------------------------------------- Algorithm 1
