@@ -153,11 +153,7 @@ def run_tasks(
                 for f in as_completed(futures):
                     f.result()
                     bar.advance(job)
-            except KeyboardInterrupt:
-                for f in futures:
-                    f.cancel()
-                raise
-            except Exception:
+            except BaseException:  # Ctrl-C or a broken pool: drop what has not started
                 for f in futures:
                     f.cancel()
                 raise
