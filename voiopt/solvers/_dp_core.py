@@ -85,13 +85,52 @@ def _ranks_geq(a, b):
 
 
 @njit(cache=True)
-def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse):
+def _distinct_ages_bound(rank, q, tau, t2, W, best_rank, per_slot, c):
+    """Upper bound on min_i V_i(t2) that respects one upload per slot.
+
+    Among any k sensors, either one is not refreshed in slots tau..t2-1 (value <= its current
+    one) or all are, in distinct slots, so one was refreshed at least k slots before t2 (value
+    <= its best from an upload in slot <= t2-k). So for every k the k-th smallest of
+    c_i(k) = W[i, max(rank_i, best rank by slot t2-k), t2] bounds the slot; k = 1 is the
+    per-sensor relaxation ``per_slot``."""
+    N = rank.shape[0]
+    best = per_slot
+    for k in range(2, N + 1):
+        tp = t2 - k + 1  # best_rank[.., tp] covers uploads in slots tau..t2-k
+        for i in range(N):
+            r = rank[i]
+            if tp > tau:
+                b = best_rank[i, q, tau, tp]
+                if b > r:
+                    r = b
+            c[i] = W[i, r, t2]
+        below = 0  # the k-th smallest is below the best so far iff k values are
+        for i in range(N):
+            if c[i] < best:
+                c[below] = c[i]
+                below += 1
+        if below >= k:  # k-th smallest of the values below, by partial selection sort
+            for a in range(k):
+                m = a
+                for b2 in range(a + 1, below):
+                    if c[b2] < c[m]:
+                        m = b2
+                c[a], c[m] = c[m], c[a]
+            best = c[k - 1]
+        if tp <= tau:
+            break  # larger k only sees current values: their k-th smallest can only grow
+    return best
+
+
+@njit(cache=True)
+def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse, tdma, scratch):
     """Admissible bound on the final value of a label in slot tau at q, and collapse in place.
 
     Future slot t2 > tau: sensor i's value is at most W[i, max(rank_i, best_rank), t2] and at
     least W[i, rank_i, t2]. A sensor whose lowest possible value exceeds some other sensor's
     highest possible value (or, for min accumulation, is already >= acc) is never the binding
-    minimum in any completion: its rank is set to the collapsed rank (exact, docs/dp.md)."""
+    minimum in any completion: its rank is set to the collapsed rank (exact, docs/dp.md).
+    With ``tdma`` the slot term is tightened by _distinct_ages_bound."""
     N = rank.shape[0]
     T = W.shape[2] - 1
     big = W.shape[1] - 1
@@ -114,10 +153,13 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
                 a1 = i
             elif u < m2:
                 m2 = u
+        term = m1
+        if tdma and N > 1:
+            term = _distinct_ages_bound(rank, q, tau, t2, W, best_rank, m1, scratch)
         if mode == SUM:
-            ub += m1
-        elif m1 < ub:
-            ub = m1
+            ub += term
+        elif term < ub:
+            ub = term
         if collapse:
             for i in range(N):
                 if matters[i]:
@@ -137,19 +179,20 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
 
 
 @njit(cache=True)
-def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse):
+def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma):
     """Bound (and collapse) of every label of one layer: used for the start label."""
     L, N = ranks.shape
     ub = np.empty(L)
     matters = np.zeros(N, dtype=np.bool_)
+    scratch = np.empty(N)
     for l in range(L):
-        ub[l] = _bound_and_collapse(mode, ranks[l], acc[l], pos[l], t, W, best_rank, matters, collapse)
+        ub[l] = _bound_and_collapse(mode, ranks[l], acc[l], pos[l], t, W, best_rank, matters, collapse, tdma, scratch)
     return ub
 
 
 @njit(cache=True)
 def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_range_count, W, best_rank,
-           incumbent, q_lo, q_hi, beam, collapse):
+           incumbent, q_lo, q_hi, beam, collapse, tdma):
     """Children in slot t+1 at target points q_lo..q_hi-1 of the layer in slot t.
 
     Returns the non-dominated children whose bound beats ``incumbent``, grouped by point:
@@ -185,6 +228,7 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
     c_sum = np.empty(max_m)
     kept = np.empty(max_m, dtype=np.int64)
     matters = np.zeros(N, dtype=np.bool_)
+    scratch = np.empty(N)
     child = np.empty(N, dtype=np.int16)
     n_out = 0
     generated = 0
@@ -205,7 +249,7 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
                             continue  # an upload that does not improve is dominated by none
                     a = _child(mode, ranks[l], acc[l], u, up_rank[t, p], W, tau, child)
                     generated += 1
-                    ub = _bound_and_collapse(mode, child, a, q, tau, W, best_rank, matters, collapse)
+                    ub = _bound_and_collapse(mode, child, a, q, tau, W, best_rank, matters, collapse, False, scratch)
                     if ub <= incumbent:
                         continue
                     s = 0.0
@@ -241,6 +285,17 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
             if not dominated:
                 kept[nk] = c
                 nk += 1
+        if tdma:  # the costlier bound only for the survivors of the filter
+            nt = 0
+            for h in range(nk):
+                c = kept[h]
+                ub = _bound_and_collapse(mode, c_rank[c], -c_acc[c], q, tau, W, best_rank, matters, False, True,
+                                         scratch)
+                if ub > incumbent:
+                    c_ub[c] = min(ub, c_ub[c])
+                    kept[nt] = c
+                    nt += 1
+            nk = nt
         if beam > 0 and nk > beam:
             sel = np.argsort(-c_ub[kept[:nk]], kind="mergesort")[:beam]
             sel = np.sort(sel)

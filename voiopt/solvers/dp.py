@@ -23,7 +23,7 @@ from voiopt.result import Plan, Result
 from voiopt.simulate import simulate
 
 AOI_OBJECTIVES = ("max-aoi", "mean-max-aoi")
-CHUNK_WORK = 400_000  # (label, upload) pairs per kernel call: the granularity of time checks
+CHUNK_WORK = 100_000  # (label, upload) pairs per kernel call: the granularity of time checks
 DEFAULT_BEAM = 16
 QUICK_BEAM = 2  # labels per point of the beam pass that gives the first incumbent
 FAST_BUDGET = 50_000  # labels of the first, unbounded pass before incumbents are computed
@@ -125,6 +125,7 @@ class SearchOutcome:
 
 
 def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = True, bounding: bool = True,
+           tdma: bool = True,
            deadline: float | None = None, memory_bytes: float | None = None, label_budget: int | None = None,
            stop=None, progress: bool = False) -> SearchOutcome:
     """One forward pass. ``beam`` > 0 keeps only that many labels per point (a heuristic).
@@ -136,7 +137,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
     ranks = tab.initial_rank[None, :].copy()
     acc = np.array([np.inf if tab.mode == core.MIN else 0.0])
     pos = np.array([tab.start], dtype=np.int32)
-    ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse)
+    ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse, tdma)
     history: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per slot >= 1: parent, upload, pos
     stored = 0
     peak_layer = 1
@@ -169,7 +170,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                     q_hi += 1
                 out = core.expand(tab.mode, t, l_ranks, l_acc, l_ub, off, tab.neighbors, tab.up_rank,
                                   tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo, q_hi,
-                                  beam, collapse)
+                                  beam, collapse, tdma)
                 out = (*out[:3], idx[out[3]], *out[4:])
                 parts.append(out)
                 generated += int(out[7])
@@ -258,6 +259,7 @@ def solve(
     greedy: bool = True,
     collapse: bool = True,
     bounding: bool = True,
+    tdma: bool = True,
     fast_budget: int = FAST_BUDGET,
     quick_beam: int = QUICK_BEAM,
 ) -> Result:
@@ -295,7 +297,7 @@ def solve(
         offer(warm_start, "warm_start")
     passes = []
     with stop_on_interrupt() as stop:
-        limits = dict(collapse=collapse, bounding=bounding, deadline=deadline, memory_bytes=memory_bytes, stop=stop)
+        limits = dict(collapse=collapse, bounding=bounding, tdma=tdma, deadline=deadline, memory_bytes=memory_bytes, stop=stop)
         if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
             b = search(tab, inc(), beam=quick_beam, **limits)
             passes.append((f"beam {quick_beam}", b))
@@ -337,7 +339,7 @@ def solve(
         "labels": sum(p.labels for _, p in passes),
         "peak_label_bytes": max(p.peak_bytes for _, p in passes),
         "incumbents": incumbents,
-        "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding,
+        "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding, "tdma": tdma,
                     "fast_budget": fast_budget, "time_limit": time_limit, "memory_limit": memory_limit},
     }
     if not out.complete:
