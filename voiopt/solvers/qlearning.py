@@ -92,21 +92,27 @@ def _hash(key):
 
 
 @nb.njit(cache=True, inline="always")
-def _find(key, table):
-    """(slot, found): where the key is, or the empty slot where it would go."""
+def _find(k0, key, table):
+    """(slot, found): where the key is, or the empty slot where it would go. The key's first
+    word is k0 (a scalar, so that the common one-word key stays in a register); key[0] is
+    ignored and key[1:] are its other words."""
     mask = table.shape[0] - 1
     W = key.shape[0]
-    s = np.int64(_hash(key) & np.uint64(mask))
+    h = _mix(k0)  # = _hash(key)
+    for w in range(1, W):
+        h = _mix(h ^ key[w])
+    s = np.int64(h & np.uint64(mask))
     while True:
         if table[s, W] == 0:
             return s, False
-        same = True
-        for w in range(W):
-            if table[s, w] != key[w]:
-                same = False
-                break
-        if same:
-            return s, True
+        if table[s, 0] == k0:
+            same = True
+            for w in range(1, W):
+                if table[s, w] != key[w]:
+                    same = False
+                    break
+            if same:
+                return s, True
         s = (s + 1) & mask
 
 
@@ -123,10 +129,11 @@ def _greedy(table, s):
 
 
 @nb.njit(cache=True, inline="always")
-def _insert(table, tablef, s, key, pool, used, n, q_init):
-    """Store key in empty slot s with n fresh Q-values at pool[used:]."""
+def _insert(table, tablef, s, k0, key, pool, used, n, q_init):
+    """Store the key (k0, key[1:]) in empty slot s with n fresh Q-values at pool[used:]."""
     W = key.shape[0]
-    for w in range(W):
+    table[s, 0] = k0
+    for w in range(1, W):
         table[s, w] = key[w]
     table[s, W] = np.uint64(used + 1) << _ARG_BITS  # greedy action 0
     tablef[s, W + 1] = q_init
@@ -184,7 +191,8 @@ def _train(
     clear = np.empty(2 + 2 * N, np.uint64)  # ~(field mask) per field
     for f in range(2 + 2 * N):
         clear[f] = ~(((np.uint64(1) << np.uint64(field_width[f])) - np.uint64(1)) << np.uint64(field_shift[f]))
-    pw, ps, pclear = field_word[0], np.uint64(field_shift[0]), clear[0]
+    ps, pclear = np.uint64(field_shift[0]), clear[0]  # the position is in word 0
+    inc0 = inc[0]
 
     bg = beta * gamma
     state = rng[0]
@@ -198,11 +206,12 @@ def _train(
         for i in range(N):
             aoi[i] = initial_aoi[i]
             qidx[i] = 0
-        for w in range(W):
+        k0 = key0[0]
+        for w in range(1, W):
             key[w] = key0[w]
-        cur, found = _find(key, table)
+        cur, found = _find(k0, key, table)
         if not found:
-            _insert(table, tablef, cur, key, pool, used, n_actions[p], q_init)
+            _insert(table, tablef, cur, k0, key, pool, used, n_actions[p], q_init)
             n_states += 1
             used += n_actions[p]
         epsilon = eps[0]
@@ -219,16 +228,25 @@ def _train(
             p_next = action_next[p, k]
             for i in range(N):
                 aoi[i] += 1
-            for w in range(W):
+            k0 += inc0
+            for w in range(1, W):
                 key[w] += inc[w]
-            key[pw] = (key[pw] & pclear) | (np.uint64(p_next) << ps)
+            k0 = (k0 & pclear) | (np.uint64(p_next) << ps)
             if u >= 0:
                 aoi[u] = 1
                 qidx[u] = 1 + p
                 fa, fq = 1 + 2 * u, 2 + 2 * u
+                va = np.uint64(1) << np.uint64(field_shift[fa])
+                vq = np.uint64(1 + p) << np.uint64(field_shift[fq])
                 wa, wq = field_word[fa], field_word[fq]
-                key[wa] = (key[wa] & clear[fa]) | (np.uint64(1) << np.uint64(field_shift[fa]))
-                key[wq] = (key[wq] & clear[fq]) | (np.uint64(1 + p) << np.uint64(field_shift[fq]))
+                if wa == 0:
+                    k0 = (k0 & clear[fa]) | va
+                else:
+                    key[wa] = (key[wa] & clear[fa]) | va
+                if wq == 0:
+                    k0 = (k0 & clear[fq]) | vq
+                else:
+                    key[wq] = (key[wq] & clear[fq]) | vq
             if aoi_reward:
                 worst = aoi[0]
                 for i in range(1, N):
@@ -244,13 +262,13 @@ def _train(
             if u < 0:
                 r = r - penalty
             # find s_{t+1}; store it unless it is s_T (never acted in)
-            nxt, found = _find(key, table)
+            nxt, found = _find(k0, key, table)
             if found:
                 future = tablef[nxt, QMAX]
             else:
                 future = q_init
                 if t + 1 < horizon:
-                    _insert(table, tablef, nxt, key, pool, used, n_actions[p_next], q_init)
+                    _insert(table, tablef, nxt, k0, key, pool, used, n_actions[p_next], q_init)
                     n_states += 1
                     used += n_actions[p_next]
             # Q(s_t, k) and the cached first maximum of s_t
@@ -296,7 +314,7 @@ def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_uploa
     p = start
     for t in range(horizon):
         _encode(p, aoi, qidx, t * slot_in_state, field_word, field_shift, key)
-        s, found = _find(key, table)
+        s, found = _find(key[0], key, table)
         k = _greedy(table, s) if found else 0
         u = action_upload[p, k]
         idx[t] = p
