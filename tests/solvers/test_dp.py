@@ -41,10 +41,11 @@ def test_dp_equals_brute_force(tiny, objective):
     [
         dict(greedy=False, beam=0, quick_beam=0),  # no incumbent: dominance, bounds, collapse
         dict(greedy=False, beam=0, quick_beam=0, fast_budget=0, collapse=False),
+        dict(fast_budget=0),  # incumbents first, the pairwise travel bound on
         dict(fast_budget=0, tdma=False),
         dict(greedy=False, beam=0, quick_beam=0, bounding=False, collapse=False),  # plain dominance
     ],
-    ids=["no-incumbent", "no-collapse", "no-tdma", "dominance-only"],
+    ids=["no-incumbent", "no-collapse", "pair-bound", "no-tdma", "dominance-only"],
 )
 def test_every_ingredient_is_exact_on_its_own(objective, options):
     for inst in tiny_instances(12, seed=777):

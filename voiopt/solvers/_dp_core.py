@@ -49,6 +49,80 @@ def best_rank_table(up_rank, coords, sensor_points, sensor_point_count):
     return out
 
 
+@njit(cache=True)
+def pair_table(W, up_rank, coords, sensor_points, sensor_point_count):
+    """pair[i, j, tau, q, t2]: the best min(V_i(t2), V_j(t2)) when both are refreshed in slots
+    tau..t2-1, i before j, by an entity at q in slot tau; -inf where impossible.
+
+    j's upload is best made in slot t2-1 (later is better), at a point within the steps left
+    after i's upload; i's at any reachable point and slot. Suffix maxima over i's slot make the
+    table O(pairs * T * (T * n + T * points^2))."""
+    T, n, N = up_rank.shape
+    out = np.full((N, N, T, n, T + 1), -np.inf)
+    P = sensor_points.shape[1]
+    H = np.empty((P, T))
+    for i in range(N):
+        for j in range(N):
+            if i == j:
+                continue
+            for t2 in range(2, T + 1):
+                for ai in range(sensor_point_count[i]):
+                    a = sensor_points[i, ai]
+                    h = -np.inf
+                    for s in range(t2 - 2, -1, -1):
+                        bj = -np.inf
+                        for bi in range(sensor_point_count[j]):
+                            b = sensor_points[j, bi]
+                            if abs(coords[a, 0] - coords[b, 0]) + abs(coords[a, 1] - coords[b, 1]) <= t2 - 1 - s:
+                                v = W[j, up_rank[t2 - 1, b, j], t2]
+                                if v > bj:
+                                    bj = v
+                        g = min(W[i, up_rank[s, a, i], t2], bj)
+                        if g > h:
+                            h = g
+                        H[ai, s] = h
+                for tau in range(0, t2 - 1):
+                    for q in range(n):
+                        best = -np.inf
+                        for ai in range(sensor_point_count[i]):
+                            a = sensor_points[i, ai]
+                            sigma = tau + abs(coords[a, 0] - coords[q, 0]) + abs(coords[a, 1] - coords[q, 1])
+                            if sigma <= t2 - 2 and H[ai, sigma] > best:
+                                best = H[ai, sigma]
+                        out[i, j, tau, q, t2] = best
+    return out
+
+
+@njit(cache=True)
+def _pair_bound(rank, q, tau, t2, W, best_rank, pair, lo, hi):
+    """Upper bound on min_i V_i(t2) from every pair of sensors: both fresh needs both uploads,
+    in order, with the travel between them (pair_table); otherwise one keeps its value."""
+    N = rank.shape[0]
+    for i in range(N):
+        r = rank[i]
+        lo[i] = W[i, r, t2]
+        b = best_rank[i, q, tau, t2]
+        if b > r:
+            r = b
+        hi[i] = W[i, r, t2]
+    best = np.inf
+    for i in range(N):
+        for j in range(i + 1, N):
+            p = min(lo[i], hi[j])
+            v = min(hi[i], lo[j])
+            if v > p:
+                p = v
+            v = pair[i, j, tau, q, t2]
+            if v > p:
+                p = v
+            v = pair[j, i, tau, q, t2]
+            if v > p:
+                p = v
+            if p < best:
+                best = p
+    return best
+
+
 @njit(cache=True, inline="always")
 def _combine(mode, acc, w):
     if mode == SUM:
@@ -123,14 +197,16 @@ def _distinct_ages_bound(rank, q, tau, t2, W, best_rank, per_slot, c):
 
 
 @njit(cache=True)
-def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse, tdma, scratch):
+def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse, tdma, scratch, pair, lo_buf,
+                        hi_buf):
     """Admissible bound on the final value of a label in slot tau at q, and collapse in place.
 
     Future slot t2 > tau: sensor i's value is at most W[i, max(rank_i, best_rank), t2] and at
     least W[i, rank_i, t2]. A sensor whose lowest possible value exceeds some other sensor's
     highest possible value (or, for min accumulation, is already >= acc) is never the binding
     minimum in any completion: its rank is set to the collapsed rank (exact, docs/dp.md).
-    With ``tdma`` the slot term is tightened by _distinct_ages_bound."""
+    With ``tdma`` the slot term is tightened by _distinct_ages_bound, and by _pair_bound when
+    ``pair`` is not empty."""
     N = rank.shape[0]
     T = W.shape[2] - 1
     big = W.shape[1] - 1
@@ -156,6 +232,10 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
         term = m1
         if tdma and N > 1:
             term = _distinct_ages_bound(rank, q, tau, t2, W, best_rank, m1, scratch)
+            if pair.shape[0] > 0:
+                v = _pair_bound(rank, q, tau, t2, W, best_rank, pair, lo_buf, hi_buf)
+                if v < term:
+                    term = v
         if mode == SUM:
             ub += term
         elif term < ub:
@@ -179,20 +259,23 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
 
 
 @njit(cache=True)
-def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma):
+def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma, pair):
     """Bound (and collapse) of every label of one layer: used for the start label."""
     L, N = ranks.shape
     ub = np.empty(L)
     matters = np.zeros(N, dtype=np.bool_)
     scratch = np.empty(N)
+    lo = np.empty(N)
+    hi = np.empty(N)
     for l in range(L):
-        ub[l] = _bound_and_collapse(mode, ranks[l], acc[l], pos[l], t, W, best_rank, matters, collapse, tdma, scratch)
+        ub[l] = _bound_and_collapse(mode, ranks[l], acc[l], pos[l], t, W, best_rank, matters, collapse, tdma,
+                                    scratch, pair, lo, hi)
     return ub
 
 
 @njit(cache=True)
 def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_range_count, W, best_rank,
-           incumbent, q_lo, q_hi, beam, collapse, tdma):
+           incumbent, q_lo, q_hi, beam, collapse, tdma, pair):
     """Children in slot t+1 at target points q_lo..q_hi-1 of the layer in slot t.
 
     Returns the non-dominated children whose bound beats ``incumbent``, grouped by point:
@@ -229,6 +312,9 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
     kept = np.empty(max_m, dtype=np.int64)
     matters = np.zeros(N, dtype=np.bool_)
     scratch = np.empty(N)
+    lo = np.empty(N)
+    hi = np.empty(N)
+    no_pair = np.empty((0, 0, 0, 0, 0))
     child = np.empty(N, dtype=np.int16)
     n_out = 0
     generated = 0
@@ -249,7 +335,8 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
                             continue  # an upload that does not improve is dominated by none
                     a = _child(mode, ranks[l], acc[l], u, up_rank[t, p], W, tau, child)
                     generated += 1
-                    ub = _bound_and_collapse(mode, child, a, q, tau, W, best_rank, matters, collapse, False, scratch)
+                    ub = _bound_and_collapse(mode, child, a, q, tau, W, best_rank, matters, collapse, False, scratch,
+                                             no_pair, lo, hi)
                     if ub <= incumbent:
                         continue
                     s = 0.0
@@ -290,7 +377,7 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
             for h in range(nk):
                 c = kept[h]
                 ub = _bound_and_collapse(mode, c_rank[c], -c_acc[c], q, tau, W, best_rank, matters, False, True,
-                                         scratch)
+                                         scratch, pair, lo, hi)
                 if ub > incumbent:
                     c_ub[c] = min(ub, c_ub[c])
                     kept[nt] = c

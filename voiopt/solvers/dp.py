@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,6 +26,7 @@ AOI_OBJECTIVES = ("max-aoi", "mean-max-aoi")
 CHUNK_WORK = 100_000  # (label, upload) pairs per kernel call: the granularity of time checks
 DEFAULT_BEAM = 16
 QUICK_BEAM = 2  # labels per point of the beam pass that gives the first incumbent
+PAIR_TABLE_BYTES = 400e6  # the pairwise bound is skipped where its table would be larger
 FAST_BUDGET = 50_000  # labels of the first, unbounded pass before incumbents are computed
 
 
@@ -44,6 +45,19 @@ class Tables:
     start: int
     to_internal: float  # objective value * to_internal = internal (maximised) value
     objective: str
+    sensor_points: np.ndarray  # (N, P) in-range points of each sensor
+    sensor_point_count: np.ndarray  # (N,)
+    coords: np.ndarray  # (n, 2) lattice coordinates
+    pair: np.ndarray = field(default_factory=lambda: np.empty((0, 0, 0, 0, 0)))  # pair_table, or empty
+
+    def with_pair_bound(self, max_bytes: float = PAIR_TABLE_BYTES) -> None:
+        """Compute the pairwise travel table (skipped if it would exceed ``max_bytes``)."""
+        from voiopt.solvers import _dp_core as core
+
+        T, n, N = self.up_rank.shape
+        if N > 1 and self.pair.shape[0] == 0 and N * N * T * n * (T + 1) * 8 <= max_bytes:
+            self.pair = core.pair_table(self.W, self.up_rank, self.coords, self.sensor_points,
+                                        self.sensor_point_count)
 
 
 def build_tables(instance: Instance, objective: str) -> Tables:
@@ -107,7 +121,8 @@ def build_tables(instance: Instance, objective: str) -> Tables:
     mode = core.SUM if objective.startswith("mean") else core.MIN
     to_internal = (T if mode == core.SUM else 1.0) * (-1.0 if aoi else 1.0)
     return Tables(mode, initial_rank, up_rank, W, best_rank, in_range_list, in_range_count,
-                  np.ascontiguousarray(lat.neighbors, dtype=np.int64), lat.start, to_internal, objective)
+                  np.ascontiguousarray(lat.neighbors, dtype=np.int64), lat.start, to_internal, objective,
+                  sensor_points, sensor_point_count, lat.coords.astype(np.int64))
 
 
 @dataclass
@@ -137,7 +152,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
     ranks = tab.initial_rank[None, :].copy()
     acc = np.array([np.inf if tab.mode == core.MIN else 0.0])
     pos = np.array([tab.start], dtype=np.int32)
-    ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse, tdma)
+    ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse, tdma, tab.pair)
     history: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per slot >= 1: parent, upload, pos
     stored = 0
     peak_layer = 1
@@ -170,7 +185,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                     q_hi += 1
                 out = core.expand(tab.mode, t, l_ranks, l_acc, l_ub, off, tab.neighbors, tab.up_rank,
                                   tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo, q_hi,
-                                  beam, collapse, tdma)
+                                  beam, collapse, tdma, tab.pair)
                 out = (*out[:3], idx[out[3]], *out[4:])
                 parts.append(out)
                 generated += int(out[7])
@@ -260,6 +275,7 @@ def solve(
     collapse: bool = True,
     bounding: bool = True,
     tdma: bool = True,
+    pair_bound: bool = True,
     fast_budget: int = FAST_BUDGET,
     quick_beam: int = QUICK_BEAM,
 ) -> Result:
@@ -309,6 +325,8 @@ def solve(
             plan = _greedy_plan(instance, objective) if greedy else None
             if plan is not None:
                 offer(plan, "greedy")
+            if pair_bound and tdma and out.stopped == "label budget":
+                tab.with_pair_bound()
             if beam > 0 and out.stopped == "label budget":
                 b = search(tab, inc(), beam=beam, **limits)
                 passes.append((f"beam {beam}", b))
@@ -340,6 +358,7 @@ def solve(
         "peak_label_bytes": max(p.peak_bytes for _, p in passes),
         "incumbents": incumbents,
         "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding, "tdma": tdma,
+                    "pair_bound": tab.pair.shape[0] > 0,
                     "fast_budget": fast_budget, "time_limit": time_limit, "memory_limit": memory_limit},
     }
     if not out.complete:
