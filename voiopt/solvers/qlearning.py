@@ -343,7 +343,16 @@ class QTable:
         self.counts = np.zeros(2, np.int64)  # [states, Q-values used]
         self.table = np.zeros((_pow2(slots), model.n_words + 2), np.uint64)
         mean_actions = float(model.n_actions.mean())
-        self.pool = np.zeros(int(MAX_LOAD * len(self.table) * mean_actions) + self._margin(), np.float64)
+        pool_len = int(MAX_LOAD * len(self.table) * mean_actions) + self._margin()
+        # The pool grows inside one reservation of address space as large as the memory limit:
+        # pages are backed only when first written, so growing the pool is a longer view of the
+        # reservation, not a copy. (Q-values are written when their state is stored, so the
+        # pool needs no zeroing.)
+        try:
+            self._reserved = np.empty(max(pool_len, int(self.max_bytes // 8)), np.float64)
+        except MemoryError:  # no address space to spare: grow by copying
+            self._reserved = np.empty(pool_len, np.float64)
+        self.pool = self._reserved[:pool_len]
 
     def _margin(self) -> int:
         return (self.model.horizon + 1) * self.model.max_actions
@@ -373,10 +382,11 @@ class QTable:
             table = np.zeros((slots, self.table.shape[1]), np.uint64)
             _rehash(self.table, table)
             self.table = table
-        if pool_len != len(self.pool):
-            pool = np.zeros(pool_len, np.float64)
-            pool[: len(self.pool)] = self.pool
-            self.pool = pool
+        if pool_len > len(self._reserved):
+            reserved = np.empty(pool_len, np.float64)
+            reserved[: len(self.pool)] = self.pool
+            self._reserved = reserved
+        self.pool = self._reserved[:pool_len]
         return True
 
     def to_dict(self) -> dict[tuple, list[float]]:
