@@ -27,7 +27,7 @@ from voiopt.result import Plan, Result
 from voiopt.simulate import check_objective, simulate_indices
 
 BETA, GAMMA, EPISODES = 0.75, 0.9, 1_000_000
-MAX_LOAD = 0.5  # hash slots at most half full
+MAX_LOAD = 0.7  # hash slots at most 70% full
 _M64 = (1 << 64) - 1
 
 # ----------------------------------------------------------------------------- random numbers
