@@ -1,9 +1,11 @@
 """The paper's Algorithm 1 (tabular Q-learning), compiled with numba, and its greedy rollout.
 
 The Q-table is an open-addressing hash table keyed by the packed state of models/mdp.py:
-each slot of ``table`` (power-of-two size, linear probing) holds the key words and 1 + the
-row where the state's Q-values (one per feasible action of its position) start in ``pool``,
-so a lookup touches one cache line for the key and one for the Q-values.
+each slot of ``table`` (power-of-two size, linear probing, at most 70% full) holds the key
+words, the row where the state's Q-values (one per feasible action of its position) start in
+``pool`` with the state's greedy action, and max_a Q(s, a). A step reads the greedy action and
+the bootstrap value from the slot it probes, so its critical path is one hash probe; the Q
+row is touched only to update one value. The key is updated in place each step, not rebuilt.
 Training runs in chunks of whole episodes; between chunks Python grows the arrays when
 needed (up to ``max_memory_mb``), updates the progress bar and checks the stop flag. Random
 numbers come from splitmix64, so a plain-Python Algorithm 1 can reproduce the run bit for bit
