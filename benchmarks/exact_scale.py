@@ -106,6 +106,7 @@ def main(argv: list[str] | None = None) -> int:
                 certified=f"{sum(r.status == 'optimal' for r in results)}/{len(results)}",
                 median=statistics.median(times), max=max(times),
                 peak_mb=max(r.solver["peak_label_bytes"] for r in results) / 1e6,
+                labels=statistics.median(r.solver["labels"] for r in results),
                 gap=statistics.median(open_gaps) if open_gaps else None,
                 gap_all=statistics.median(r.gap for r in results),
                 limit=limit,
@@ -121,14 +122,14 @@ def main(argv: list[str] | None = None) -> int:
 
 def _print_row(row: dict, header: bool) -> None:
     if header:
-        print("| setting | objective | certified | median s | max s | peak label MB | median gap of uncertified "
-              "| median gap of all | limit s |")
-        print("|---|---|---|---|---|---|---|---|---|")
+        print("| setting | objective | certified | median s | max s | median labels | peak label MB "
+              "| median gap of uncertified | median gap of all | limit s |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
     gap = "-" if row["gap"] is None else f"{100 * row['gap']:.3g} %"
     gap_all = f"{100 * row['gap_all']:.3g} %"
     limit = "-" if row["limit"] is None else f"{row['limit']:g}"
     print(f"| {row['setting']} | {row['objective']} | {row['certified']} | {row['median']:.3f} | {row['max']:.3f} | "
-          f"{row['peak_mb']:.1f} | {gap} | {gap_all} | {limit} |", flush=True)
+          f"{row['labels']:,.0f} | {row['peak_mb']:.1f} | {gap} | {gap_all} | {limit} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -298,7 +298,7 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
     out_acc = np.empty(cap)
     out_ub = np.empty(cap)
     out_par = np.empty(cap, dtype=np.int64)
-    out_up = np.empty(cap, dtype=np.int8)
+    out_up = np.empty(cap, dtype=np.int16)
     out_pos = np.empty(cap, dtype=np.int32)
     counts = np.zeros(q_hi - q_lo, dtype=np.int64)
     NW = (N + 3) // 4  # ranks packed four 16-bit lanes to a word for the dominance test
@@ -307,7 +307,7 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
     c_acc = np.empty(max_m)
     c_ub = np.empty(max_m)
     c_par = np.empty(max_m, dtype=np.int64)
-    c_up = np.empty(max_m, dtype=np.int8)
+    c_up = np.empty(max_m, dtype=np.int16)
     c_sum = np.empty(max_m)
     kept = np.empty(max_m, dtype=np.int64)
     matters = np.zeros(N, dtype=np.bool_)

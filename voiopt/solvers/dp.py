@@ -16,7 +16,7 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import physics
-from voiopt.errors import OptionError
+from voiopt.errors import OptionError, VoioptError
 from voiopt.instance import Instance
 from voiopt.interrupt import progress_bar, stop_on_interrupt
 from voiopt.result import Plan, Result
@@ -85,7 +85,7 @@ def build_tables(instance: Instance, objective: str) -> Tables:
         cand_lists.append([cands[k] for k in order])
     R = max(len(c) for c in cand_lists) + 1
     if R >= np.iinfo(np.int16).max:
-        raise ValueError(f"dp: too many candidate uploads per sensor ({R}) for int16 ranks")
+        raise VoioptError(f"dp: too many candidate uploads per sensor ({R}) for 16-bit ranks (horizon too long)")
     W = np.full((N, R, T + 1), np.inf)
     initial_rank = np.empty(N, dtype=np.int16)
     up_rank = np.full((T, n, N), -1, dtype=np.int16)
@@ -313,7 +313,9 @@ def solve(
         offer(warm_start, "warm_start")
     passes = []
     with stop_on_interrupt() as stop:
-        limits = dict(collapse=collapse, bounding=bounding, tdma=tdma, deadline=deadline, memory_bytes=memory_bytes, stop=stop)
+        # the fast passes use only the cheap bound: at the paper's scale the tight ones cost more than they save
+        limits = dict(collapse=collapse, bounding=bounding, tdma=False, deadline=deadline, memory_bytes=memory_bytes,
+                      stop=stop)
         if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
             b = search(tab, inc(), beam=quick_beam, **limits)
             passes.append((f"beam {quick_beam}", b))
@@ -327,6 +329,7 @@ def solve(
                 offer(plan, "greedy")
             if pair_bound and tdma and out.stopped == "label budget":
                 tab.with_pair_bound()
+            limits["tdma"] = tdma
             if beam > 0 and out.stopped == "label budget":
                 b = search(tab, inc(), beam=beam, **limits)
                 passes.append((f"beam {beam}", b))
