@@ -310,6 +310,8 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
     c_up = np.empty(max_m, dtype=np.int16)
     c_sum = np.empty(max_m)
     kept = np.empty(max_m, dtype=np.int64)
+    chain = np.empty(max_m, dtype=np.int64)  # next kept label in the same bucket
+    head = np.empty(W.shape[1] + 1, dtype=np.int64)  # first kept label of each bucket
     matters = np.zeros(N, dtype=np.bool_)
     scratch = np.empty(N)
     lo = np.empty(N)
@@ -358,19 +360,46 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
         # generation order; a label can only be dominated by one before it.
         o1 = np.argsort(c_sum[:m], kind="mergesort")
         o2 = np.argsort(c_acc[o1], kind="mergesort")
+        # Kept labels are bucketed by the rank of the sensor whose ranks spread most: only
+        # buckets at or above the candidate's rank there can hold a dominating label.
+        bd = 0
+        lo_b = 0
+        spread = -1
+        for i in range(N):
+            lo_i = c_rank[0, i]
+            hi_i = c_rank[0, i]
+            for h in range(1, m):
+                if c_rank[h, i] < lo_i:
+                    lo_i = c_rank[h, i]
+                elif c_rank[h, i] > hi_i:
+                    hi_i = c_rank[h, i]
+            if hi_i - lo_i > spread:
+                spread = hi_i - lo_i
+                bd = i
+                lo_b = lo_i
+        for b in range(spread + 1):
+            head[b] = -1
         nk = 0
         last = 0  # the latest dominating label is tried first: dominators come in runs
         for j in range(m):
             c = o1[o2[j]]
             dominated = nk > 0 and _ranks_geq(c_key[kept[last]], c_key[c])
+            v = c_rank[c, bd] - lo_b
             if not dominated:
-                for h in range(nk):
-                    if _ranks_geq(c_key[kept[h]], c_key[c]):
-                        dominated = True
-                        last = h
+                for b in range(v, spread + 1):
+                    h = head[b]
+                    while h >= 0:
+                        if _ranks_geq(c_key[kept[h]], c_key[c]):
+                            dominated = True
+                            last = h
+                            break
+                        h = chain[h]
+                    if dominated:
                         break
             if not dominated:
                 kept[nk] = c
+                chain[nk] = head[v]
+                head[v] = nk
                 nk += 1
         if tdma:  # the costlier bound only for the survivors of the filter
             nt = 0
