@@ -129,15 +129,15 @@ SWEEPS = (
 
 
 def _sweep_instances(sweep: Sweep, networks: int, seed: int, out: Path) -> dict[float, list[Path]]:
-    """The networks of each sweep value, written once (same seed, same networks)."""
+    """The networks of each sweep value, written once.
+
+    Every value uses the same seed (common random numbers): along the power and drho sweeps
+    network k keeps its positions, start and uniform draws, and only the swept parameter
+    changes, so the curves show the parameter's effect rather than network-to-network noise."""
     paths = {}
-    for j, v in enumerate(sweep.values):
+    for v in sweep.values:
         folder = out / "instances" / sweep.key / f"{v:g}"
-        existing = sorted(folder.glob("*.json"))
-        if len(existing) == networks:
-            paths[v] = existing
-            continue
-        insts = generate_set(networks, seed=seed + 1000 * j, name=f"{sweep.key}-{v:g}", **sweep.generator_kwargs(v))
+        insts = generate_set(networks, seed=seed, name=f"{sweep.key}-{v:g}-seed{seed}", **sweep.generator_kwargs(v))
         paths[v] = write_set(insts, folder)
     return paths
 
@@ -201,13 +201,13 @@ def make_figures(
     case_study_instance: Instance | None = None,
 ) -> list[Path]:
     """Reproduce Figs. 3-7 with the proven optimum; return the files written."""
-    from voiopt.report import Task, method_options, read_csv, run_tasks, write_csv
+    from voiopt.report import Task, check_manifest, method_options, read_csv, run_tasks, write_csv
 
     if networks < 1:
         raise OptionError(f"--networks: must be >= 1, got {networks}")
     out = Path(out_dir)
-    (out / "results").mkdir(parents=True, exist_ok=True)
     opts = dict(time_limit=time_limit, episodes=episodes, seed=seed, threads=1)
+    check_manifest(out, {"command": "figures", "networks": networks, **opts})
 
     # the case study (Figs. 3 and 4)
     inst = case_study_instance or case_study()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import inspect
+import json
 import math
 import os
 import statistics
@@ -21,6 +22,7 @@ from typing import Any
 
 from voiopt import instance as instance_mod
 from voiopt.errors import MissingExtraError, OptionError, VoioptError
+from voiopt.instance import write_json_atomic
 from voiopt.interrupt import progress_bar
 from voiopt.result import Result, load_result
 from voiopt.simulate import check_objective, sense
@@ -158,6 +160,28 @@ def run_tasks(
                     f.cancel()
                 raise
     return len(todo)
+
+
+def check_manifest(out_dir: Path, settings: dict[str, Any]) -> None:
+    """Resume only a run made with the same settings: ``run.json`` records them.
+
+    Without this, re-running into a folder with other options (episodes, time limit, seed,
+    objective) would silently mix results of two different experiments."""
+    path = out_dir / "run.json"
+    settings = json.loads(json.dumps(settings))  # the form it has on disk
+    if path.is_file():
+        try:
+            old = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            old = None
+        if old != settings:
+            diff = sorted(k for k in set(settings) | set(old or {}) if (old or {}).get(k) != settings.get(k))
+            raise OptionError(
+                f"-o/--out: {out_dir} holds a run with other settings ({', '.join(diff)} differ); "
+                "use another folder, or delete it to start again"
+            )
+        return
+    write_json_atomic(path, settings)
 
 
 def result_path(out_dir: Path, instance_name: str, method: str) -> Path:
@@ -304,11 +328,10 @@ def gap_report(
     if time_limit is not None and not time_limit > 0:
         raise OptionError(f"--time-limit: must be > 0 seconds, got {time_limit:g}")
     out = Path(out_dir)
-    (out / "results").mkdir(parents=True, exist_ok=True)
-    tasks = plan_tasks(
-        expand_instances(instances), methods, objective, out,
-        time_limit=time_limit, episodes=episodes, seed=seed, threads=1,
-    )
+    paths = expand_instances(instances)
+    options = dict(time_limit=time_limit, episodes=episodes, seed=seed, threads=1)
+    check_manifest(out, {"command": "gap-report", "objective": objective, **options})
+    tasks = plan_tasks(paths, methods, objective, out, **options)
     run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="pairs")
     results = [load_result(t.out_path) for t in tasks]
     rows = gap_rows(results, objective)
