@@ -70,5 +70,6 @@ def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo
             f"The paper's Q-learning reaches {q.value:.6g} bit/s of a proven optimum of {best_bound:.6g} bit/s: "
             f"a certified gap of {100 * (best_bound - q.value) / best_bound:.1f} %."
         )
+    console.print("(times include numba's one-off compilation on the first run of a fresh install)", style="dim")
     console.print(f"results written to {out_dir}/ (plot one with: voiopt plot {out_dir}/{inst.name}__dp.json -o dp.png)")
     return 0
