@@ -21,7 +21,6 @@ from typing import Any
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.interrupt import StopFlag, stop_on_interrupt
@@ -86,20 +85,12 @@ def solve(
 
 
 def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None) -> tuple[np.ndarray, np.ndarray]:
-    """The given plan, else the greedy baseline's, else "stay at the start, upload nothing"."""
+    """The given plan, else the greedy baseline's: the MILP always has a plan to return."""
     if warm_start is not None:
         return check_plan(instance, warm_start)  # PlanError (exit 2) if it does not fit
-    try:
-        from voiopt.solvers.baselines import greedy
+    from voiopt.solvers.baselines import greedy
 
-        plan = greedy(instance, objective).plan
-        if plan is not None:
-            return check_plan(instance, plan)
-    except ImportError:
-        pass
-    lat = lattice_mod.build(instance)
-    T = instance.horizon
-    return np.full(T, lat.start, dtype=np.int64), np.full(T, -1, dtype=np.int64)
+    return check_plan(instance, greedy(instance, objective).plan)
 
 
 def _stopped_statuses() -> tuple:
