@@ -20,7 +20,7 @@ from voiopt import instance as instance_mod
 from voiopt import lattice as lattice_mod
 from voiopt.errors import OptionError
 from voiopt.generate import case_study, generate_set, write_set
-from voiopt.instance import Instance
+from voiopt.instance import Instance, atomic_write
 from voiopt.result import Plan, Result, load_result
 from voiopt.simulate import simulate
 
@@ -48,13 +48,12 @@ def save_figure(fig, path: str | os.PathLike) -> None:
     """Save a PNG atomically and free the figure."""
     import matplotlib.pyplot as plt
 
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_name(f".{p.stem}.tmp.png")
     fig.tight_layout()
-    fig.savefig(tmp, dpi=150)
-    plt.close(fig)
-    os.replace(tmp, p)
+    try:
+        with atomic_write(path, binary=True) as f:
+            fig.savefig(f, format="png", dpi=150)
+    finally:
+        plt.close(fig)
 
 
 # ------------------------------------------------------------------------ trajectories
@@ -258,9 +257,8 @@ def make_figures(
             md.append(f"| {v:g} | " + " | ".join(f"{float(cells[m]['mean']):.4g}" if cells[m]["mean"] else "-" for m in SCHEMES)
                       + f" | {cells['dp']['certified']}/{cells['dp']['networks']} |")
     md_path = out / "figures.md"
-    tmp = out / ".figures.md.tmp"
-    tmp.write_text("\n".join(md) + "\n", encoding="utf-8")
-    os.replace(tmp, md_path)
+    with atomic_write(md_path) as f:
+        f.write("\n".join(md) + "\n")
     return [*written, md_path]
 
 

@@ -22,7 +22,7 @@ from typing import Any
 
 from voiopt import instance as instance_mod
 from voiopt.errors import MissingExtraError, OptionError, VoioptError
-from voiopt.instance import write_json_atomic
+from voiopt.instance import atomic_write, write_json_atomic
 from voiopt.interrupt import progress_bar
 from voiopt.result import Result, load_result
 from voiopt.simulate import check_objective, sense
@@ -232,15 +232,13 @@ def gap_rows(results: Sequence[Result], objective: str) -> list[dict[str, Any]]:
 
 def write_csv(path: Path, rows: Sequence[dict[str, Any]], columns: Sequence[str], header: Sequence[str] = ()) -> None:
     """A CSV written atomically; ``header`` lines go first as '# ...' comments."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w", newline="", encoding="utf-8") as f:
+    with atomic_write(path, newline="") as f:
         for line in header:
             f.write(f"# {line}\n")
         w = csv.DictWriter(f, fieldnames=list(columns))
         w.writeheader()
         for row in rows:
             w.writerow({k: ("" if row.get(k) is None else row[k]) for k in columns})
-    os.replace(tmp, path)
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:
@@ -339,8 +337,7 @@ def gap_report(
     n_instances = len({t.instance_name for t in tasks})
     summary = summarise(rows, methods)
     md = summary_markdown(summary, objective, n_instances)
-    tmp = out / ".summary.md.tmp"
-    tmp.write_text(md, encoding="utf-8")
-    os.replace(tmp, out / "summary.md")
+    with atomic_write(out / "summary.md") as f:
+        f.write(md)
     plot_gaps(rows, methods, out / "gaps.png", objective)
     return rows
