@@ -141,7 +141,7 @@ def _sweep_instances(sweep: Sweep, networks: int, seed: int, out: Path) -> dict[
     return paths
 
 
-def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[Result]], networks: int) -> list[dict[str, Any]]:
+def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[Result]]) -> list[dict[str, Any]]:
     rows = []
     for v in sweep.values:
         for m in SCHEMES:
@@ -243,7 +243,7 @@ def make_figures(
             stems = {p.stem for p in inst_paths[v]}
             for m in SCHEMES:
                 results[(v, m)] = [load_result(t.out_path) for t in ts if t.method == m and t.instance_name in stems]
-        rows = _aggregate(sweep, results, networks)
+        rows = _aggregate(sweep, results)
         csv_path = out / f"{key}.csv"
         header = [sweep.title, f"x = {sweep.x_label}; sweep values {list(sweep.values)}; {networks} networks each; seed {seed}",
                   "mean and ci95 of the simulated mean-min-voi (bit/s); dp rows: certified = networks proven optimal, mean_bound = mean proven upper bound"]
