@@ -32,7 +32,6 @@ def test_milp_plan_through_the_env_pays_the_simulators_rewards(small, reward):
     lat = lattice.build(small)
     env = gymnasium.make(voienv.ENV_ID, instance=small, reward=reward)
     obs, info = env.reset(seed=0)
-    B = small.channel.bandwidth_hz
     for t in range(small.horizon):
         p = traj.positions[t]
         assert tuple(lat.coords[p]) == tuple(obs[:2])
@@ -42,7 +41,7 @@ def test_milp_plan_through_the_env_pays_the_simulators_rewards(small, reward):
         assert info["action_mask"][action]
         obs, r, terminated, truncated, info = env.step(action)
         idle = 100.0 if u is None else 0.0
-        expect = traj.voi[t + 1].min() / B - idle if reward == "voi" else -traj.aoi[t + 1].max() - idle
+        expect = traj.voi[t + 1].min() - idle if reward == "voi" else -traj.aoi[t + 1].max() - idle
         assert r == pytest.approx(expect, rel=1e-12)
         assert info["feasible"] and not truncated
         assert terminated == (t + 1 == small.horizon)
@@ -54,7 +53,7 @@ def _move(lat, p, q):
 
 
 def test_mask_and_infeasible_actions(case_study):
-    env = voienv.VoIEnv(case_study, render_mode="ansi")
+    env = voienv.VoIEnv(case_study, render_mode="ansi", reward_units="bit/s/Hz")  # V/B < 1: the penalty shows
     _, info = env.reset()
     mask = info["action_mask"]
     assert mask.shape == (20,) and mask.sum() == env.model.n_actions[env.model.start]

@@ -48,7 +48,7 @@ def test_gap_table_matches_result_files(tmp_path, nets, objective):
             expected = (best_bound - v) / best_bound if maximise else (v - best_bound) / best_bound
             assert float(row["gap"]) == pytest.approx(expected, rel=1e-12, abs=1e-15)
     summary = (tmp_path / "summary.md").read_text()
-    assert "| dp | 3 | 3 | 0 |" in summary
+    assert "| dp | 3 | - | 3 | 3 | 0 |" in summary
     assert (tmp_path / "gaps.png").stat().st_size > 1000
 
 
@@ -99,7 +99,7 @@ def test_a_failing_pair_is_recorded_and_the_sweep_goes_on(tmp_path, nets, monkey
     r = voiopt.load_result(tmp_path / "results" / f"{errors[0]['instance']}__greedy.json")
     assert r.solver["error"] == "ValueError: solver exploded"
     assert sum(r["status"] == "feasible" for r in rows) == 3
-    assert "| greedy | 3 | 0 | 3 |" in (tmp_path / "summary.md").read_text()
+    assert "| greedy | 3 | - | 3 | 0 | 3 |" in (tmp_path / "summary.md").read_text()
 
 
 def _comparable(path):
@@ -147,3 +147,34 @@ def test_resume_refuses_a_folder_made_with_other_settings(tmp_path, nets, capsys
     assert len(rows) == 6
     code = main(["gap-report", str(nets), "-o", str(tmp_path), "--quiet", "--methods", "greedy", "--objective", "max-aoi", "--seed", "1"])
     assert code == 2 and "objective differ" in capsys.readouterr().err
+
+
+def test_randomised_methods_run_once_per_seed_through_the_cli(tmp_path, nets):
+    out = tmp_path / "seeds"
+    code = main(["gap-report", str(nets), "--methods", "dp,qlearning,greedy", "--episodes", "2e3",
+                 "--seed", "5", "--seeds", "3", "-o", str(out), "--quiet"])
+    assert code == 0
+    rows = read_rows(out / "gaps.csv")
+    assert "seed" in rows[0]
+    insts = {r["instance"] for r in rows}
+    for name in insts:
+        q = [r for r in rows if r["instance"] == name and r["method"] == "qlearning"]
+        assert sorted(int(r["seed"]) for r in q) == [5, 6, 7]
+        for r in q:  # each value is the simulator's value of its saved plan
+            res = voiopt.load_result(out / "results" / f"{name}__qlearning__seed{r['seed']}.json")
+            assert res.solver["seed"] == int(r["seed"]) and res.solver["reward_units"] == "bit/s"
+            inst = voiopt.load(nets / f"{name}.json")
+            assert float(r["value"]) == voiopt.evaluate(inst, res.plan)["mean-min-voi"]
+        for m in ("dp", "greedy"):
+            [row] = [r for r in rows if r["instance"] == name and r["method"] == m]
+            assert row["seed"] == ""
+    summary = (out / "summary.md").read_text()
+    gaps = [float(r["gap"]) for r in rows if r["method"] == "qlearning"]
+    line = next(line for line in summary.splitlines() if line.startswith("| qlearning |"))
+    cells = [c.strip() for c in line.strip("|").split("|")]
+    assert cells[1:4] == [str(len(insts)), "5-7", str(3 * len(insts))]
+    assert cells[6:9] == [f"{100 * sum(gaps) / len(gaps):.3g} %", f"{100 * min(gaps):.3g} %", f"{100 * max(gaps):.3g} %"]
+    assert "bit/s, idle penalty 100" in summary
+    # the bit/s/Hz reading is another experiment: not mixed into the same folder
+    assert main(["gap-report", str(nets), "--methods", "qlearning", "--reward-units", "bit/s/Hz",
+                 "-o", str(out), "--quiet"]) == 2

@@ -15,6 +15,7 @@ from voiopt import instance as instance_mod
 from voiopt.errors import OptionError, VoioptError
 from voiopt.generate import generate as generate_one
 from voiopt.generate import generate_set, write_set
+from voiopt.models.mdp import REWARD_UNITS
 from voiopt.simulate import OBJECTIVES
 
 out = Console(highlight=False, soft_wrap=True)
@@ -25,6 +26,17 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2 (argparse prints usage too)
         err.print(f"{self.prog}: error: {message}", markup=False)
         raise SystemExit(2)
+
+
+def _count(text: str) -> int:
+    """An integer option that also takes integer-valued numbers such as 1e6."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not value.is_integer():
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}")
+    return int(value)
 
 
 def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
@@ -92,7 +104,7 @@ def cmd_generate(args) -> int:
 
 def _solve_options(args) -> dict:
     opts = {}
-    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit"):
+    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units"):
         v = getattr(args, key, None)
         if v is not None:
             opts[key] = v
@@ -100,6 +112,8 @@ def _solve_options(args) -> dict:
         opts["warm_start"] = voiopt.load_plan(args.warm_start)
     if not args.quiet and not args.json:
         opts["progress"] = True
+    if args.verbose:
+        opts["verbose"] = True  # only milp takes it: elsewhere a one-line error says so
     return opts
 
 
@@ -137,12 +151,13 @@ def cmd_gap_report(args) -> int:
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     rows = gap_report(
         args.instances, methods, args.objective, args.output, time_limit=args.time_limit,
-        episodes=args.episodes, seed=args.seed, workers=args.workers,
-        dask_scheduler=args.dask_scheduler, progress=not args.quiet,
+        episodes=args.episodes, seed=args.seed, seeds=args.seeds, reward_units=args.reward_units,
+        workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
         n = len({r["instance"] for r in rows})
-        out.print(summary_markdown(summarise(rows, methods), args.objective, n).split("![")[0].rstrip(), markup=False)
+        md = summary_markdown(summarise(rows, methods), args.objective, n, args.reward_units)
+        out.print(md.split("![")[0].rstrip(), markup=False)
         out.print(f"written: {args.output}/gaps.csv, summary.md, gaps.png, results/", markup=False)
     return 0
 
@@ -152,7 +167,7 @@ def cmd_figures(args) -> int:
 
     files = make_figures(
         args.out, networks=args.networks, episodes=args.episodes, time_limit=args.time_limit,
-        seed=args.seed, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
+        seed=args.seed, seeds=args.seeds, reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
         out.print("\n".join(str(f) for f in files), markup=False)
@@ -181,6 +196,18 @@ def _add_executor_options(s: argparse.ArgumentParser) -> None:
     s.add_argument("--workers", type=int, default=1, metavar="K", help="parallel processes (default 1)")
     s.add_argument("--dask-scheduler", default=None, metavar="ADDRESS",
                    help="tcp://HOST:PORT of a Dask cluster, or 'local' for a LocalCluster (needs voiopt[dask])")
+
+
+def _add_qlearning_options(s: argparse.ArgumentParser, seeds: bool) -> None:
+    s.add_argument("--episodes", type=_count, default=None, metavar="N",
+                   help="Q-learning episodes R_max; 1e6 is accepted (default 1000000, the paper's)")
+    s.add_argument("--reward-units", default=None if not seeds else "bit/s", choices=list(REWARD_UNITS),
+                   help="Q-learning reward: V in bit/s as the paper writes it, or V/B; idle penalty 100 either way "
+                        "(default bit/s)")
+    if seeds:
+        s.add_argument("--seed", type=_count, default=0, metavar="S", help="first seed (default 0)")
+        s.add_argument("--seeds", type=_count, default=3, metavar="K",
+                       help="randomised methods run with seeds S .. S+K-1 (default 3)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -215,18 +242,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("solve", help="solve an instance and write the result JSON")
     s.add_argument("instance", metavar="INSTANCE")
-    s.add_argument("--method", default="milp", help="solution method (see 'voiopt methods')")
-    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
-    s.add_argument("--time-limit", type=float, default=None, metavar="S")
-    s.add_argument("--gap", type=float, default=None, metavar="G", help="relative MIP gap (default 0: exact)")
-    s.add_argument("--threads", type=int, default=None, metavar="K")
-    s.add_argument("--episodes", type=int, default=None, metavar="N", help="Q-learning episodes R_max")
-    s.add_argument("--seed", type=int, default=None, metavar="S")
-    s.add_argument("--memory-limit", type=float, default=None, metavar="GB")
-    s.add_argument("--warm-start", default=None, metavar="PLAN", help="a plan or result JSON to start from")
-    s.add_argument("-o", "--output", default=None, metavar="RESULT")
+    s.add_argument("--method", default="milp", help=f"one of {', '.join(voiopt.METHODS)} (default milp)")
+    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES), help="(default mean-min-voi)")
+    s.add_argument("--time-limit", type=float, default=None, metavar="S", help="seconds (default: none)")
+    s.add_argument("--gap", type=float, default=None, metavar="G", help="milp: relative MIP gap (default 0: exact)")
+    s.add_argument("--threads", type=_count, default=None, metavar="K", help="milp: HiGHS threads (default: HiGHS's)")
+    _add_qlearning_options(s, seeds=False)
+    s.add_argument("--seed", type=_count, default=None, metavar="S",
+                   help="seed of a randomised method (default 0)")
+    s.add_argument("--memory-limit", type=float, default=None, metavar="GB", help="dp: memory limit (default: none)")
+    s.add_argument("--warm-start", default=None, metavar="PLAN", help="milp, dp: a plan or result JSON to start from")
+    s.add_argument("-o", "--output", default=None, metavar="RESULT", help="write the result JSON here")
     s.add_argument("--json", action="store_true", help="print the result JSON to stdout")
-    s.add_argument("--quiet", action="store_true")
+    s.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    s.add_argument("--verbose", action="store_true", help="milp: show HiGHS's own log on stderr")
     s.set_defaults(func=cmd_solve)
 
     s = sub.add_parser("export", help="write the MILP of an instance as MPS or LP (by extension)")
@@ -239,9 +268,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("instances", nargs="+", metavar="INSTANCES", help="instance files or folders of them")
     s.add_argument("--methods", default="dp,qlearning,aoi-qlearning,shortest-path", help="comma-separated")
     s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
-    s.add_argument("--time-limit", type=float, default=None, metavar="S", help="per pair")
-    s.add_argument("--episodes", type=int, default=None, metavar="N")
-    s.add_argument("--seed", type=int, default=None, metavar="S")
+    s.add_argument("--time-limit", type=float, default=None, metavar="S", help="per run (default: none)")
+    _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
     s.add_argument("-o", "--output", required=True, metavar="DIR")
     s.add_argument("--quiet", action="store_true")
@@ -250,9 +278,8 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("figures", help="reproduce the paper's figures with the proven optimum")
     s.add_argument("--out", required=True, metavar="DIR")
     s.add_argument("--networks", type=int, default=40, help="networks per setting (default 40)")
-    s.add_argument("--episodes", type=int, default=None, metavar="N", help="Q-learning episodes (default 1e6)")
     s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="dp limit per network (default 60)")
-    s.add_argument("--seed", type=int, default=0)
+    _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_figures)

@@ -38,15 +38,15 @@ class VoIEnv(gym.Env):
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
 
     def __init__(self, instance: Instance, reward: str = "voi", render_mode: str | None = None,
-                 penalty: float = mdp_mod.IDLE_PENALTY):
+                 penalty: float = mdp_mod.IDLE_PENALTY, reward_units: str = "bit/s"):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise OptionError(f"render_mode: must be 'ansi' or 'rgb_array', got {render_mode!r}")
         self.instance = instance
-        self.model = mdp_mod.build(instance, reward, penalty)
+        self.model = mdp_mod.build(instance, reward, penalty, reward_units=reward_units)
         self.lattice = lattice_mod.build(instance)
         self.render_mode = render_mode
         N, lat = instance.n_sensors, self.lattice
-        max_age = int(self.model.voi_over_b.shape[1] - 1)
+        max_age = int(self.model.voi_reward.shape[1] - 1)
         self.observation_space = spaces.MultiDiscrete(
             [lat.nx, lat.ny] + [max_age + 1] * N + [lat.n_points + 1] * N, dtype=np.int64
         )

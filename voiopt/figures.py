@@ -21,8 +21,10 @@ from voiopt import lattice as lattice_mod
 from voiopt.errors import OptionError
 from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance, atomic_write
+from voiopt.models.mdp import check_reward_units
 from voiopt.result import Plan, Result, load_result
 from voiopt.simulate import simulate
+from voiopt.solvers import RANDOMISED
 
 SCHEMES = {  # method -> label in the paper's words
     "qlearning": "VoI-optimal (Q-learning)",
@@ -141,21 +143,31 @@ def _sweep_instances(sweep: Sweep, networks: int, seed: int, out: Path) -> dict[
     return paths
 
 
-def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[Result]]) -> list[dict[str, Any]]:
+def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | None, Result]]]) -> list[dict[str, Any]]:
+    """Per sweep value and method: the mean over networks for each seed, then the mean over
+    seeds with their min and max (a deterministic method has one 'seed')."""
     rows = []
     for v in sweep.values:
         for m in SCHEMES:
-            rs = results[(v, m)]
-            vals = [r.value for r in rs if r.value is not None]
-            bounds = [r.bound if r.bound is not None else math.nan for r in rs]
-            sd = statistics.stdev(vals) if len(vals) > 1 else 0.0
+            runs = results[(v, m)]
+            by_seed: dict[int | None, list[float]] = {}
+            for seed, r in runs:
+                if r.value is not None:
+                    by_seed.setdefault(seed, []).append(r.value)
+            seed_means = [statistics.fmean(vals) for vals in by_seed.values()]
+            per_network = [r.value for _, r in runs if r.value is not None]
+            sd = statistics.stdev(per_network) if len(per_network) > 1 else 0.0
+            bounds = [r.bound if r.bound is not None else math.nan for _, r in runs]
+            n_networks = len({r.instance for _, r in runs})
             rows.append({
-                "x": v, "method": m, "networks": len(rs),
-                "mean": statistics.fmean(vals) if vals else None,
-                "ci95": 1.96 * sd / math.sqrt(len(vals)) if vals else None,
+                "x": v, "method": m, "networks": n_networks, "seeds": len(by_seed) if m in RANDOMISED else "",
+                "mean": statistics.fmean(seed_means) if seed_means else None,
+                "seed_min": min(seed_means) if seed_means else None,
+                "seed_max": max(seed_means) if seed_means else None,
+                "ci95": 1.96 * sd / math.sqrt(len(per_network)) if per_network else None,
                 "mean_bound": statistics.fmean(bounds) if m == "dp" and bounds and not any(map(math.isnan, bounds)) else None,
-                "certified": sum(r.status == "optimal" for r in rs) if m == "dp" else None,
-                "errors": sum(r.status == "error" for r in rs),
+                "certified": sum(r.status == "optimal" for _, r in runs) if m == "dp" else None,
+                "errors": sum(r.status == "error" for _, r in runs),
             })
     return rows
 
@@ -166,10 +178,10 @@ def _plot_sweep(sweep: Sweep, rows: list[dict[str, Any]], path: Path) -> None:
         mine = [r for r in rows if r["method"] == m and r["mean"] is not None]
         xs = [r["x"] for r in mine]
         ys = [r["mean"] for r in mine]
-        ci = [r["ci95"] or 0.0 for r in mine]
-        lower = [min(c, 0.9 * y) for c, y in zip(ci, ys, strict=True)]  # a log axis has no room below 0
-        ax.errorbar(xs, ys, yerr=[lower, ci], label=label, color=COLOURS[m], marker="o", ms=4, capsize=3,
-                    ls="--" if m == "dp" else "-")
+        ax.plot(xs, ys, label=label, color=COLOURS[m], marker="o", ms=4, ls="--" if m == "dp" else "-")
+        if m in RANDOMISED:
+            ax.fill_between(xs, [r["seed_min"] for r in mine], [r["seed_max"] for r in mine],
+                            color=COLOURS[m], alpha=0.2, lw=0)
         if m == "dp":
             uncertified = [r for r in mine if r["certified"] is not None and r["certified"] < r["networks"] and r["mean_bound"] is not None]
             if uncertified:
@@ -179,7 +191,7 @@ def _plot_sweep(sweep: Sweep, rows: list[dict[str, Any]], path: Path) -> None:
         ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(sweep.x_label)
-    ax.set_ylabel("time-average minimum VoI (bit/s)\nmean, 95 % CI (lower bar clipped at 10 % of the mean)", fontsize=8)
+    ax.set_ylabel("time-average minimum VoI (bit/s)\nmean over networks; Q-learning: mean over seeds,\nband from the worst to the best seed", fontsize=8)
     ax.set_title(sweep.title, fontsize=8)
     ax.legend(fontsize=7)
     save_figure(fig, path)
@@ -194,60 +206,78 @@ def make_figures(
     episodes: int | None = None,
     time_limit: float = 60.0,
     seed: int = 0,
+    seeds: int = 3,
+    reward_units: str = "bit/s",
     workers: int = 1,
     dask_scheduler: str | None = None,
     progress: bool = False,
     case_study_instance: Instance | None = None,
 ) -> list[Path]:
     """Reproduce Figs. 3-7 with the proven optimum; return the files written."""
-    from voiopt.report import Task, check_manifest, method_options, read_csv, run_tasks, write_csv
+    from voiopt.report import (
+        check_manifest,
+        check_seeds,
+        method_tasks,
+        read_csv,
+        run_tasks,
+        write_csv,
+    )
 
     if networks < 1:
         raise OptionError(f"--networks: must be >= 1, got {networks}")
+    check_seeds(seeds)
+    check_reward_units(reward_units)
     out = Path(out_dir)
-    opts = dict(time_limit=time_limit, episodes=episodes, seed=seed, threads=1)
-    check_manifest(out, {"command": "figures", "networks": networks, **opts})
+    opts = dict(time_limit=time_limit, episodes=episodes, reward_units=reward_units, threads=1)
+    check_manifest(out, {"command": "figures", "networks": networks, "seed": seed, "seeds": seeds, **opts})
 
-    # the case study (Figs. 3 and 4)
+    # the case study (Figs. 3 and 4): the plans drawn are those of the first seed
     inst = case_study_instance or case_study()
     cs_path = out / "instances" / f"{inst.name}.json"
     instance_mod.save(inst, cs_path)
-    tasks = [Task(str(cs_path), inst.name, m, OBJECTIVE, method_options(m, **opts), str(out / "results" / "case-study" / f"{inst.name}__{m}.json")) for m in SCHEMES]
-    sweep_tasks: dict[str, tuple[Sweep, dict[float, list[Path]], list[Task]]] = {}
+    cs_tasks = method_tasks(cs_path, inst.name, list(SCHEMES), OBJECTIVE, out / "results" / "case-study",
+                            seed, seeds, **opts)
+    tasks = list(cs_tasks)
+    sweep_tasks: dict[str, tuple[Sweep, dict[float, list[Path]], list]] = {}
     for sweep in SWEEPS:
         inst_paths = _sweep_instances(sweep, networks, seed, out)
-        ts = [
-            Task(str(p), p.stem, m, OBJECTIVE, method_options(m, **opts), str(out / "results" / sweep.key / f"{p.stem}__{m}.json"))
-            for v in sweep.values for p in inst_paths[v] for m in SCHEMES
-        ]
+        ts = [t for v in sweep.values for p in inst_paths[v]
+              for t in method_tasks(p, p.stem, list(SCHEMES), OBJECTIVE, out / "results" / sweep.key, seed, seeds, **opts)]
         sweep_tasks[sweep.key] = (sweep, inst_paths, ts)
         tasks += ts
     run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="figure runs")
 
     written = []
-    cs_results = {m: load_result(t.out_path) for m, t in zip(SCHEMES, tasks[: len(SCHEMES)], strict=True)}
+    cs_results = {t.method: load_result(t.out_path) for t in cs_tasks if t.seed in (None, seed)}
+    cs_seed_values = {m: [load_result(t.out_path).value for t in cs_tasks if t.method == m] for m in SCHEMES}
     written += _case_study_figures(inst, cs_results, out)
     md = ["# The paper's figures, with the proven optimum", ""]
-    md += [f"Networks per setting: {networks}; Q-learning episodes: {episodes or 'paper default (1e6)'}; "
-           f"exact method: dp with a {time_limit:g} s limit per network; seed {seed}. "
-           "Values are means over networks of the simulated time-average minimum VoI; error bars are 95 % "
-           "confidence intervals of the mean.", ""]
+    md += [f"Networks per setting: {networks}; Q-learning episodes: {episodes or 'paper default (1e6)'}, "
+           f"seeds {seed}..{seed + seeds - 1}, reward in {reward_units} with idle penalty 100 (MODEL.md section 7); "
+           f"exact method: dp with a {time_limit:g} s limit per network. "
+           "Values are means over networks of the simulated time-average minimum VoI; for Q-learning the mean "
+           "over seeds, with a band from the worst to the best seed's mean.", ""]
     md += ["## Fig. 3 and 4: case study", "", "![fig3](fig3_case_study.png)", "", "![fig4](fig4_voi_over_time.png)", ""]
+    md += [f"Plans drawn: seed {seed}. mean-min-voi over seeds: "
+           + "; ".join(f"{SCHEMES[m]} {_spread(vals)}" for m, vals in cs_seed_values.items()), ""]
     md += ["| scheme | status | mean-min-voi | min-voi | max-aoi | mean-max-aoi |", "|---|---|---:|---:|---:|---:|"]
     for m, r in cs_results.items():
         mt = r.metrics or {}
         md.append(f"| {SCHEMES[m]} | {r.status} | " + " | ".join(f"{mt.get(k, float('nan')):.6g}" for k in ("mean-min-voi", "min-voi", "max-aoi", "mean-max-aoi")) + " |")
     for key, (sweep, inst_paths, ts) in sweep_tasks.items():
-        results: dict[tuple[float, str], list[Result]] = {}
+        results: dict[tuple[float, str], list[tuple[int | None, Result]]] = {}
         for v in sweep.values:
             stems = {p.stem for p in inst_paths[v]}
             for m in SCHEMES:
-                results[(v, m)] = [load_result(t.out_path) for t in ts if t.method == m and t.instance_name in stems]
+                results[(v, m)] = [(t.seed, load_result(t.out_path)) for t in ts if t.method == m and t.instance_name in stems]
         rows = _aggregate(sweep, results)
         csv_path = out / f"{key}.csv"
-        header = [sweep.title, f"x = {sweep.x_label}; sweep values {list(sweep.values)}; {networks} networks each; seed {seed}",
-                  "mean and ci95 of the simulated mean-min-voi (bit/s); dp rows: certified = networks proven optimal, mean_bound = mean proven upper bound"]
-        write_csv(csv_path, rows, ["x", "method", "networks", "mean", "ci95", "mean_bound", "certified", "errors"], header)
+        header = [sweep.title, f"x = {sweep.x_label}; sweep values {list(sweep.values)}; {networks} networks each; "
+                  f"seeds {seed}..{seed + seeds - 1}; Q-learning reward in {reward_units}",
+                  "mean: of the simulated mean-min-voi (bit/s) over networks, then over seeds; seed_min/seed_max: the worst and best seed's mean; "
+                  "ci95: over networks; dp rows: certified = networks proven optimal, mean_bound = mean proven upper bound"]
+        write_csv(csv_path, rows, ["x", "method", "networks", "seeds", "mean", "seed_min", "seed_max", "ci95",
+                                   "mean_bound", "certified", "errors"], header)
         _plot_sweep(sweep, rows, out / f"{key}.png")
         written += [out / f"{key}.png", csv_path]
         md += ["", f"## {key}", "", f"![{key}]({key}.png)", "", f"{sweep.title}. Numbers: `{key}.csv`.", "",
@@ -260,6 +290,15 @@ def make_figures(
     with atomic_write(md_path) as f:
         f.write("\n".join(md) + "\n")
     return [*written, md_path]
+
+
+def _spread(values: list[float | None]) -> str:
+    vals = [v for v in values if v is not None]
+    if not vals:
+        return "-"
+    if len(vals) == 1:
+        return f"{vals[0]:.4g}"
+    return f"mean {statistics.fmean(vals):.4g} (min {min(vals):.4g}, max {max(vals):.4g})"
 
 
 def _case_study_figures(inst: Instance, results: dict[str, Result], out: Path) -> list[Path]:

@@ -24,17 +24,19 @@ from voiopt import instance as instance_mod
 from voiopt.errors import MissingExtraError, OptionError, VoioptError
 from voiopt.instance import atomic_write, write_json_atomic
 from voiopt.interrupt import progress_bar
+from voiopt.models.mdp import check_reward_units
 from voiopt.result import Result, load_result
 from voiopt.simulate import check_objective, sense
-from voiopt.solvers import METHODS, solver_function
+from voiopt.solvers import METHODS, RANDOMISED, solver_function
 
-GAP_COLUMNS = ["instance", "method", "objective", "status", "value", "bound", "best_value", "best_bound", "gap", "runtime_s"]
-EXACT_METHODS = ("dp", "milp")
+GAP_COLUMNS = ["instance", "method", "seed", "objective", "status", "value", "bound", "best_value", "best_bound",
+               "gap", "runtime_s"]
 
 
 @dataclass(frozen=True)
 class Task:
-    """One (instance, method) pair and where its result goes."""
+    """One (instance, method, seed) run and where its result goes; seed is None for a
+    deterministic method."""
 
     instance_path: str
     instance_name: str
@@ -42,6 +44,7 @@ class Task:
     objective: str
     options: dict[str, Any] = field(default_factory=dict)
     out_path: str = ""
+    seed: int | None = None
 
 
 def expand_instances(paths: Iterable[str | os.PathLike]) -> list[Path]:
@@ -184,12 +187,36 @@ def check_manifest(out_dir: Path, settings: dict[str, Any]) -> None:
     write_json_atomic(path, settings)
 
 
-def result_path(out_dir: Path, instance_name: str, method: str) -> Path:
-    return out_dir / "results" / f"{instance_name}__{method}.json"
+def result_path(folder: Path, instance_name: str, method: str, seed: int | None = None) -> Path:
+    suffix = "" if seed is None else f"__seed{seed}"
+    return folder / f"{instance_name}__{method}{suffix}.json"
+
+
+def check_seeds(seeds: int) -> int:
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise OptionError(f"--seeds: must be an integer >= 1, got {seeds!r}")
+    return seeds
+
+
+def method_tasks(
+    instance_path: Path, instance_name: str, methods: Sequence[str], objective: str, folder: Path,
+    seed: int = 0, seeds: int = 1, **options: Any,
+) -> list[Task]:
+    """The runs of one instance: one per deterministic method, and one per seed
+    seed .. seed + seeds - 1 for each randomised method (MODEL.md section 7)."""
+    tasks = []
+    for m in methods:
+        run_seeds = [seed + k for k in range(seeds)] if m in RANDOMISED else [None]
+        for s in run_seeds:
+            opts = method_options(m, **options, seed=seed if s is None else s)
+            tasks.append(Task(str(instance_path), instance_name, m, objective, opts,
+                              str(result_path(folder, instance_name, m, s)), s))
+    return tasks
 
 
 def plan_tasks(
-    instance_paths: Sequence[Path], methods: Sequence[str], objective: str, out_dir: Path, **options: Any
+    instance_paths: Sequence[Path], methods: Sequence[str], objective: str, out_dir: Path,
+    seed: int = 0, seeds: int = 1, **options: Any,
 ) -> list[Task]:
     names: dict[str, Path] = {}
     tasks = []
@@ -198,13 +225,14 @@ def plan_tasks(
         if inst.name in names:
             raise OptionError(f"INSTANCES: {p} and {names[inst.name]} are both named {inst.name!r}")
         names[inst.name] = p
-        for m in methods:
-            tasks.append(Task(str(p), inst.name, m, objective, method_options(m, **options), str(result_path(out_dir, inst.name, m))))
+        tasks += method_tasks(p, inst.name, methods, objective, out_dir / "results", seed, seeds, **options)
     return tasks
 
 
-def gap_rows(results: Sequence[Result], objective: str) -> list[dict[str, Any]]:
-    """One row per result, with the best plan value and tightest proven bound of its instance."""
+def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | None] | None = None) -> list[dict[str, Any]]:
+    """One row per result, with the best plan value and tightest proven bound of its instance
+    (over every method and seed); ``seeds`` gives each result's seed (None: deterministic)."""
+    seeds = list(seeds) if seeds is not None else [None] * len(results)
     maximise = sense(objective) == "max"
     best = max if maximise else min
     tight = min if maximise else max
@@ -212,7 +240,7 @@ def gap_rows(results: Sequence[Result], objective: str) -> list[dict[str, Any]]:
     for r in results:
         by_instance.setdefault(r.instance, []).append(r)
     rows = []
-    for r in results:
+    for r, seed in zip(results, seeds, strict=True):
         group = by_instance[r.instance]
         values = [g.value for g in group if g.value is not None]
         bounds = [g.bound for g in group if g.bound is not None]
@@ -223,7 +251,7 @@ def gap_rows(results: Sequence[Result], objective: str) -> list[dict[str, Any]]:
             diff = (best_bound - r.value) if maximise else (r.value - best_bound)
             gap = max(diff, 0.0) / max(abs(best_bound), 1e-300)
         rows.append({
-            "instance": r.instance, "method": r.method, "objective": r.objective, "status": r.status,
+            "instance": r.instance, "method": r.method, "seed": seed, "objective": r.objective, "status": r.status,
             "value": r.value, "bound": r.bound, "best_value": best_value, "best_bound": best_bound,
             "gap": gap, "runtime_s": r.runtime_s,
         })
@@ -247,18 +275,23 @@ def read_csv(path: Path) -> list[dict[str, str]]:
 
 
 def summarise(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> list[dict[str, Any]]:
+    """Per method: gaps over every run (seeds and networks), as mean, min, max and median."""
     out = []
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
         gaps = [r["gap"] for r in mine if r["gap"] is not None]
         times = [r["runtime_s"] for r in mine if r["status"] != "error"]
+        seeds = sorted({r["seed"] for r in mine if r.get("seed") is not None})
         out.append({
             "method": m,
-            "instances": len(mine),
+            "instances": len({r["instance"] for r in mine}),
+            "runs": len(mine),
+            "seeds": seeds,
             "optimal": sum(r["status"] == "optimal" for r in mine),
             "errors": sum(r["status"] == "error" for r in mine),
             "median_gap": statistics.median(gaps) if gaps else None,
             "mean_gap": statistics.fmean(gaps) if gaps else None,
+            "min_gap": min(gaps) if gaps else None,
             "max_gap": max(gaps) if gaps else None,
             "within_1pct": sum(g <= 0.01 for g in gaps),
             "median_runtime_s": statistics.median(times) if times else None,
@@ -270,22 +303,38 @@ def _pct(v: float | None) -> str:
     return "-" if v is None else f"{100 * v:.3g} %"
 
 
-def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instances: int) -> str:
+def _seed_text(seeds: Sequence[int]) -> str:
+    if not seeds:
+        return "-"
+    if seeds == list(range(seeds[0], seeds[-1] + 1)) and len(seeds) > 2:
+        return f"{seeds[0]}-{seeds[-1]}"
+    return ", ".join(map(str, seeds))
+
+
+def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instances: int,
+                     reward_units: str | None = None) -> str:
     lines = [
         f"# Gap report: {objective}",
         "",
         f"{n_instances} instance(s). The gap of a plan is its relative distance to the tightest "
         "proven bound over all methods for that instance (a proven optimality gap; exact when "
-        "an exact method proved optimality). Every value is simulated from the plan.",
+        "an exact method proved optimality). Every value is simulated from the plan. "
+        "A randomised method runs once per seed; its mean, min and max gap are over every seed "
+        "and network (one seed is an anecdote).",
+    ]
+    if reward_units is not None:
+        lines.append(f"Q-learning reward reading: V in {reward_units}, idle penalty 100 (MODEL.md section 7).")
+    lines += [
         "",
-        "| method | instances | optimal | errors | median gap | mean gap | max gap | within 1 % | median runtime |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| method | instances | seeds | runs | optimal | errors | mean gap | min gap | max gap | median gap | within 1 % | median runtime |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for s in summary:
         rt = "-" if s["median_runtime_s"] is None else f"{s['median_runtime_s']:.3g} s"
         lines.append(
-            f"| {s['method']} | {s['instances']} | {s['optimal']} | {s['errors']} | {_pct(s['median_gap'])} | "
-            f"{_pct(s['mean_gap'])} | {_pct(s['max_gap'])} | {s['within_1pct']} | {rt} |"
+            f"| {s['method']} | {s['instances']} | {_seed_text(s['seeds'])} | {s['runs']} | {s['optimal']} | "
+            f"{s['errors']} | {_pct(s['mean_gap'])} | {_pct(s['min_gap'])} | {_pct(s['max_gap'])} | "
+            f"{_pct(s['median_gap'])} | {s['within_1pct']}/{s['runs']} | {rt} |"
         )
     lines += ["", "![gap distributions](gaps.png)", ""]
     return "\n".join(lines)
@@ -315,28 +364,34 @@ def gap_report(
     *,
     time_limit: float | None = None,
     episodes: int | None = None,
-    seed: int | None = None,
+    seed: int = 0,
+    seeds: int = 3,
+    reward_units: str = "bit/s",
     workers: int = 1,
     dask_scheduler: str | None = None,
     progress: bool = False,
 ) -> list[dict[str, Any]]:
-    """Run every (instance, method) pair, then write gaps.csv, summary.md and gaps.png."""
+    """Run every (instance, method, seed), then write gaps.csv, summary.md and gaps.png.
+    Randomised methods run with seeds seed .. seed + seeds - 1; the others once."""
     check_objective(objective)
     methods = check_methods(methods)
+    check_seeds(seeds)
+    check_reward_units(reward_units)
     if time_limit is not None and not time_limit > 0:
         raise OptionError(f"--time-limit: must be > 0 seconds, got {time_limit:g}")
     out = Path(out_dir)
     paths = expand_instances(instances)
-    options = dict(time_limit=time_limit, episodes=episodes, seed=seed, threads=1)
-    check_manifest(out, {"command": "gap-report", "objective": objective, **options})
-    tasks = plan_tasks(paths, methods, objective, out, **options)
-    run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="pairs")
+    options = dict(time_limit=time_limit, episodes=episodes, reward_units=reward_units, threads=1)
+    check_manifest(out, {"command": "gap-report", "objective": objective, "seed": seed, "seeds": seeds, **options})
+    tasks = plan_tasks(paths, methods, objective, out, seed=seed, seeds=seeds, **options)
+    run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="runs")
     results = [load_result(t.out_path) for t in tasks]
-    rows = gap_rows(results, objective)
+    rows = gap_rows(results, objective, [t.seed for t in tasks])
     write_csv(out / "gaps.csv", rows, GAP_COLUMNS)
     n_instances = len({t.instance_name for t in tasks})
     summary = summarise(rows, methods)
-    md = summary_markdown(summary, objective, n_instances)
+    uses_q = any(m in RANDOMISED for m in methods)
+    md = summary_markdown(summary, objective, n_instances, reward_units if uses_q else None)
     with atomic_write(out / "summary.md") as f:
         f.write(md)
     plot_gaps(rows, methods, out / "gaps.png", objective)

@@ -55,8 +55,8 @@ def test_actions_are_exactly_the_feasible_set(case_study):
 @pytest.mark.parametrize("inst", tiny_instances(6, seed=7) + [voiopt.generate(4, 30, seed=3)], ids=lambda i: i.name)
 def test_step_and_reward_follow_the_simulator(inst):
     rng = np.random.default_rng(1)
-    for reward in ("voi", "aoi"):
-        model = mdp.build(inst, reward)
+    for reward, units in (("voi", "bit/s"), ("voi", "bit/s/Hz"), ("aoi", "bit/s")):
+        model = mdp.build(inst, reward, reward_units=units)
         states, actions, _ = _random_walk(model, rng, inst.horizon)
         idx = [s[0] for s in states]
         sched = [int(model.action_upload[s[0], k]) for s, k in zip(states, actions, strict=True)]
@@ -67,7 +67,8 @@ def test_step_and_reward_follow_the_simulator(inst):
             idle = 100.0 if sched[t] < 0 else 0.0
             np.testing.assert_array_equal(state[1], traj.aoi[t + 1])
             if reward == "voi":
-                expect = traj.voi[t + 1].min() / inst.channel.bandwidth_hz - idle
+                scale = inst.channel.bandwidth_hz if units == "bit/s/Hz" else 1.0
+                expect = traj.voi[t + 1].min() / scale - idle
                 assert r == pytest.approx(expect, rel=1e-12, abs=1e-15)
             else:
                 assert r == -traj.aoi[t + 1].max() - idle
@@ -79,3 +80,12 @@ def test_step_and_reward_follow_the_simulator(inst):
 def test_bad_reward_is_an_option_error(case_study):
     with pytest.raises(OptionError, match="reward"):
         mdp.build(case_study, "mse")
+    with pytest.raises(OptionError, match="reward_units"):
+        mdp.build(case_study, reward_units="bit/Hz")
+
+
+def test_default_reward_is_the_paper_as_written_in_bit_per_second(case_study):
+    model = mdp.build(case_study)
+    hz = mdp.build(case_study, reward_units="bit/s/Hz")
+    assert model.reward_units == "bit/s" and model.penalty == 100.0
+    np.testing.assert_allclose(model.voi_reward, hz.voi_reward * case_study.channel.bandwidth_hz, rtol=1e-15)

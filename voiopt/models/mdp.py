@@ -9,8 +9,9 @@ which is the key of the compiled Q-table.
 
 Actions available at point p are numbered 0 .. n_actions[p]-1, uploads outer (none first, then
 the in-range sensors ascending) and moves inner (stay, N, S, E, W, skipping those that leave
-the area). Reward r_{t+1} = min_i V_i(t+1)/B - penalty*[no upload] (VoI), or
--max_i A_i(t+1) - penalty*[no upload] (AoI variant).
+the area). Reward r_{t+1} = min_i V_i(t+1) - penalty*[no upload] (VoI), with V in bit/s as the
+paper writes it (``reward_units="bit/s"``, the default) or V/B (``"bit/s/Hz"``, kept for
+comparison), or -max_i A_i(t+1) - penalty*[no upload] (AoI variant). MODEL.md section 7.
 """
 
 from __future__ import annotations
@@ -25,7 +26,14 @@ from voiopt.errors import OptionError
 from voiopt.instance import Instance
 
 REWARDS = ("voi", "aoi")
+REWARD_UNITS = ("bit/s", "bit/s/Hz")
 IDLE_PENALTY = 100.0
+
+
+def check_reward_units(units: str) -> str:
+    if units not in REWARD_UNITS:
+        raise OptionError(f"reward_units: must be one of {', '.join(REWARD_UNITS)}, got {units!r}")
+    return units
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,6 +41,7 @@ class MDP:
     instance: Instance
     reward: str  # "voi" or "aoi"
     penalty: float
+    reward_units: str  # "bit/s" (the paper as written) or "bit/s/Hz" (V / B)
     slot_in_state: bool  # beyond the paper: the slot t is part of the state
     start: int  # lattice index of p(0)
     initial_aoi: np.ndarray  # (N,) A_i(0)
@@ -40,7 +49,7 @@ class MDP:
     action_upload: np.ndarray  # (n, K) sensor uploaded by action k at p, -1 = none (pad -1)
     action_move: np.ndarray  # (n, K) move index 0..4 (stay, N, S, E, W)
     action_next: np.ndarray  # (n, K) p(t+1)
-    voi_over_b: np.ndarray  # (N, max_age + 1, n + 1) V_i / B for age a and distance index
+    voi_reward: np.ndarray  # (N, max_age + 1, n + 1) V_i in reward units for age a and distance index
     field_word: np.ndarray  # (2 + 2N,) word of each packed field: p, A_i and q_i per sensor, slot
     field_shift: np.ndarray  # (2 + 2N,) bit offset of each field in its word
     field_width: np.ndarray  # (2 + 2N,) bits of each field
@@ -88,7 +97,7 @@ class MDP:
         idle = self.penalty if upload < 0 else 0.0
         if self.reward == "aoi":
             return -float(max(aoi)) - idle
-        return min(float(self.voi_over_b[i, a, q]) for i, (a, q) in enumerate(zip(aoi, qidx, strict=True))) - idle
+        return min(float(self.voi_reward[i, a, q]) for i, (a, q) in enumerate(zip(aoi, qidx, strict=True))) - idle
 
     def encode(self, state) -> np.ndarray:
         """The packed key of a state: n_words uint64 words."""
@@ -116,10 +125,11 @@ def _bits(max_value: int) -> int:
 
 
 def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY,
-          slot_in_state: bool = False) -> MDP:
+          slot_in_state: bool = False, reward_units: str = "bit/s") -> MDP:
     """The arrays of the MDP of ``instance`` with the VoI or AoI reward."""
     if reward not in REWARDS:
         raise OptionError(f"reward: must be 'voi' or 'aoi', got {reward!r}")
+    check_reward_units(reward_units)
     lat = lattice_mod.build(instance)
     n, N, T = lat.n_points, instance.n_sensors, instance.horizon
     initial_aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
@@ -139,7 +149,7 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
         for k, (u, m, nxt) in enumerate(acts):
             action_upload[p, k], action_move[p, k], action_next[p, k] = u, m, nxt
 
-    # V_i / B for every age 0..max_age and distance index (0 = initial, 1 + p = from point p)
+    # V_i (bit/s, or / B) for every age 0..max_age and distance index (0 = initial, 1 + p = from point p)
     dist = np.concatenate(
         [np.array([[instance.initial_distance(i)] for i in range(N)]), lat.distance], axis=1
     )
@@ -147,7 +157,9 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
     power = np.array([s.power_w for s in instance.sensors])
     ages = np.arange(max_age + 1, dtype=float)
     voi = physics.voi(ages[None, :, None], dist[:, None, :], rho[:, None, None], power[:, None, None], instance.channel)
-    voi_over_b = np.ascontiguousarray(voi / instance.channel.bandwidth_hz)
+    if reward_units == "bit/s/Hz":
+        voi = voi / instance.channel.bandwidth_hz
+    voi_reward = np.ascontiguousarray(voi)
 
     widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N + [_bits(T)]
     field_word, field_shift, word, used = [], [], 0, 0
@@ -157,11 +169,11 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
         field_word.append(word)
         field_shift.append(used)
         used += w
-    arrays = [initial_aoi, n_actions, action_upload, action_move, action_next, voi_over_b]
+    arrays = [initial_aoi, n_actions, action_upload, action_move, action_next, voi_reward]
     for a in arrays:
         a.setflags(write=False)
     return MDP(
-        instance, reward, float(penalty), bool(slot_in_state), int(lat.start), initial_aoi, n_actions, action_upload,
-        action_move, action_next, voi_over_b, np.array(field_word, dtype=np.int64),
+        instance, reward, float(penalty), reward_units, bool(slot_in_state), int(lat.start), initial_aoi, n_actions, action_upload,
+        action_move, action_next, voi_reward, np.array(field_word, dtype=np.int64),
         np.array(field_shift, dtype=np.int64), np.array(widths, dtype=np.int64), word + 1,
     )

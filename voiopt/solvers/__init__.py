@@ -27,6 +27,9 @@ METHODS: dict[str, tuple[str, str]] = {
     "greedy": ("voiopt.solvers.baselines", "greedy"),
 }
 
+# methods whose plan depends on the seed: a gap of theirs is reported over several seeds
+RANDOMISED = frozenset({"qlearning", "aoi-qlearning"})
+
 
 def solver_function(method: str):
     if method not in METHODS:

@@ -52,8 +52,10 @@ def solve(
     gap: float | None = None,
     threads: int | None = None,
     warm_start: Plan | None = None,
+    verbose: bool = False,
 ) -> Result:
-    """Solve ``instance`` exactly for ``objective`` (within ``time_limit`` seconds, if given)."""
+    """Solve ``instance`` exactly for ``objective`` (within ``time_limit`` seconds, if given).
+    ``verbose`` shows HiGHS's own log on stderr."""
     check_objective(objective)
     if time_limit is not None and not time_limit > 0:
         raise OptionError(f"--time-limit: must be > 0 seconds, got {time_limit:g}")
@@ -63,7 +65,7 @@ def solve(
         raise OptionError(f"--threads: must be >= 1, got {threads}")
     t0 = time.perf_counter()
     deadline = None if time_limit is None else t0 + time_limit
-    run = _Run(instance, objective, progress, deadline, gap, threads)
+    run = _Run(instance, objective, verbose, deadline, gap, threads)
     run.offer_plan(*_warm_plan(instance, objective, warm_start), source="warm start")
     run.details["warm_start"] = "given" if warm_start is not None else "greedy"
     run.details["warm_start_s"] = time.perf_counter() - t0
@@ -106,11 +108,11 @@ _STOPPED = _stopped_statuses()
 class _Run:
     """State of one solve: the incumbent plan, the clock, the HiGHS options and the details."""
 
-    def __init__(self, instance, objective, progress, deadline, gap, threads) -> None:
+    def __init__(self, instance, objective, verbose, deadline, gap, threads) -> None:
         self.instance = instance
         self.objective = objective
         self.kind = model_mod.worth_kind(objective)
-        self.progress = progress
+        self.verbose = verbose
         self.deadline = deadline
         self.gap = 0.0 if gap is None else float(gap)
         self.threads = threads
@@ -151,8 +153,8 @@ class _Run:
 
         t = time.perf_counter()
         h = highspy.Highs()
-        # progress: HiGHS's log of the one big MILP, on stderr (stdout stays for results)
-        log = self.progress and model.aggregate != "covering"
+        # verbose: HiGHS's log of the one big MILP, on stderr (stdout stays for results)
+        log = self.verbose and model.aggregate != "covering"
         h.setOptionValue("output_flag", log)
         if log:
             h.setOptionValue("log_to_console", False)
@@ -238,7 +240,7 @@ class _Run:
                 break
             else:
                 raise RuntimeError(f"milp: HiGHS ended a covering problem with {h.modelStatusToString(ms)!r}")
-            if self.progress:
+            if self.verbose:
                 print(
                     f"milp {self.objective}: threshold {self.worth(float(cand[mid])):.6g} {steps[-1]}; "
                     f"best {self.best_value:.6g}, bound {self.worth(float(cand[hi])):.6g}",
