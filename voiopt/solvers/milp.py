@@ -152,7 +152,7 @@ class _Run:
         import highspy
 
         t = time.perf_counter()
-        h = highspy.Highs()
+        h = _new_highs(self.verbose)
         # verbose: HiGHS's log of the one big MILP, on stderr (stdout stays for results)
         log = self.verbose and model.aggregate != "covering"
         h.setOptionValue("output_flag", log)
@@ -328,6 +328,26 @@ class _Run:
             new = self._dual_bound_worth(model, info)
             bound = bound if new is None else min(bound, max(new, self.worth(self.best_value)))
         return bound
+
+
+def _new_highs(verbose: bool):
+    """A Highs object; HiGHS prints its banner on stdout when the first one is made, whatever
+    its options, so unless ``verbose`` that one construction writes to /dev/null."""
+    import os
+
+    import highspy
+
+    if verbose:
+        return highspy.Highs()
+    sys.stdout.flush()
+    saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        return highspy.Highs()
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
 
 
 def _abs_slack(model: model_mod.Model) -> float:
