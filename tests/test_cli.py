@@ -11,7 +11,9 @@ from conftest import ROOT
 
 import voiopt
 from voiopt.cli import main
-from voiopt.generate import CASE_STUDY_PLAN
+from voiopt.generate import case_study_plan
+
+CASE_STUDY_PLAN = case_study_plan().to_dict()
 
 CASE = str(ROOT / "instances" / "case-study.json")
 PLAN = str(ROOT / "instances" / "case-study.plan.json")

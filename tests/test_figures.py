@@ -6,7 +6,8 @@ import csv
 
 import voiopt
 from voiopt.cli import main
-from voiopt.figures import SCHEMES, SWEEPS
+from voiopt.experiments.paper import SWEEPS
+from voiopt.plots import SCHEMES
 
 
 def test_plot_a_result(tmp_path, capsys, case_study):

@@ -8,8 +8,9 @@ import json
 import pytest
 
 import voiopt
-from voiopt import report
 from voiopt.cli import main
+from voiopt.experiments import gaps as report
+from voiopt.experiments import runner
 from voiopt.generate import generate_set, write_set
 
 
@@ -53,7 +54,7 @@ def test_gap_table_matches_result_files(tmp_path, nets, objective):
 
 
 def test_resume_after_interrupt_redoes_nothing(tmp_path, nets, monkeypatch):
-    real = report.solver_function
+    real = runner.solver_function
     calls = []
 
     def flaky(method):
@@ -67,14 +68,14 @@ def test_resume_after_interrupt_redoes_nothing(tmp_path, nets, monkeypatch):
 
         return wrapped
 
-    monkeypatch.setattr(report, "solver_function", flaky)
+    monkeypatch.setattr(runner, "solver_function", flaky)
     with pytest.raises(KeyboardInterrupt):
         report.gap_report([nets], ["greedy", "shortest-path"], "mean-min-voi", tmp_path)
     done = sorted((tmp_path / "results").glob("*.json"))
     assert len(done) == 3, "the three finished pairs are on disk"
     before = {p.name: p.stat().st_mtime_ns for p in done}
     calls.clear()
-    monkeypatch.setattr(report, "solver_function", real)
+    monkeypatch.setattr(runner, "solver_function", real)
     report.gap_report([nets], ["greedy", "shortest-path"], "mean-min-voi", tmp_path)
     after = sorted((tmp_path / "results").glob("*.json"))
     assert len(after) == 6
@@ -83,7 +84,7 @@ def test_resume_after_interrupt_redoes_nothing(tmp_path, nets, monkeypatch):
 
 
 def test_a_failing_pair_is_recorded_and_the_sweep_goes_on(tmp_path, nets, monkeypatch):
-    real = report.solver_function
+    real = runner.solver_function
 
     def broken(method):
         if method == "greedy":
@@ -92,7 +93,7 @@ def test_a_failing_pair_is_recorded_and_the_sweep_goes_on(tmp_path, nets, monkey
             return fail
         return real(method)
 
-    monkeypatch.setattr(report, "solver_function", broken)
+    monkeypatch.setattr(runner, "solver_function", broken)
     rows = report.gap_report([nets], ["greedy", "shortest-path"], "mean-min-voi", tmp_path)
     errors = [r for r in rows if r["status"] == "error"]
     assert len(errors) == 3 and all(r["method"] == "greedy" and r["value"] is None for r in errors)

@@ -12,11 +12,12 @@ from rich.table import Table
 
 import voiopt
 from voiopt import instance as instance_mod
+from voiopt import lattice
 from voiopt.errors import OptionError, VoioptError
 from voiopt.generate import generate as generate_one
 from voiopt.generate import generate_set, write_set
 from voiopt.models.mdp import REWARD_UNITS
-from voiopt.simulate import OBJECTIVES
+from voiopt.objectives import DEFAULT, OBJECTIVES
 
 out = Console(highlight=False, soft_wrap=True)
 err = Console(stderr=True, highlight=False, soft_wrap=True)
@@ -63,10 +64,7 @@ def cmd_validate(args) -> int:
                 err.print(line, markup=False)
             bad += 1
             continue
-        from voiopt import lattice
-
-        lat = lattice.build(inst)
-        never = [i for i in range(inst.n_sensors) if not lat.in_range[i].any()]
+        never = lattice.unservable_sensors(inst)
         note = ""
         if never:
             note = f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
@@ -146,24 +144,23 @@ def cmd_export(args) -> int:
 
 
 def cmd_gap_report(args) -> int:
-    from voiopt.report import gap_report, summarise, summary_markdown
+    from voiopt.experiments.gaps import gap_report
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    rows = gap_report(
+    gap_report(
         args.instances, methods, args.objective, args.output, time_limit=args.time_limit,
         episodes=args.episodes, seed=args.seed, seeds=args.seeds, reward_units=args.reward_units,
         workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
-        n = len({r["instance"] for r in rows})
-        md = summary_markdown(summarise(rows, methods), args.objective, n, args.reward_units)
+        md = (Path(args.output) / "summary.md").read_text(encoding="utf-8")
         out.print(md.split("![")[0].rstrip(), markup=False)
         out.print(f"written: {args.output}/gaps.csv, summary.md, gaps.png, results/", markup=False)
     return 0
 
 
 def cmd_figures(args) -> int:
-    from voiopt.figures import make_figures
+    from voiopt.experiments.paper import make_figures
 
     files = make_figures(
         args.out, networks=args.networks, episodes=args.episodes, time_limit=args.time_limit,
@@ -175,21 +172,28 @@ def cmd_figures(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from voiopt.figures import load_instance_for, plot_result
+    from voiopt.plots import check_figure_path, instance_for, plot_result
 
+    check_figure_path(args.output)
     result = voiopt.load_result(args.result)
-    plot_result(result, load_instance_for(result, args.instance), args.output)
+    plot_result(result, instance_for(result, args.instance), args.output)
     out.print(f"wrote {args.output}", markup=False)
     return 0
 
 
 def cmd_demo(args) -> int:
-    from voiopt.demo import run_demo
+    from voiopt.experiments.demo import run_demo
 
     return run_demo(args.instance, out)
 
 
 # ---------------------------------------------------------------------------------- parser
+
+
+def _command(sub, name: str, help: str, func) -> argparse.ArgumentParser:
+    s = sub.add_parser(name, help=help)
+    s.set_defaults(func=func)
+    return s
 
 
 def _add_executor_options(s: argparse.ArgumentParser) -> None:
@@ -215,17 +219,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"voiopt {voiopt.__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    s = sub.add_parser("validate", help="check instance files; print ok or the errors")
+    s = _command(sub, "validate", "check instance files; print ok or the errors", cmd_validate)
     s.add_argument("instances", nargs="+", metavar="INSTANCE")
-    s.set_defaults(func=cmd_validate)
 
-    s = sub.add_parser("evaluate", help="simulate a plan and print its four metrics")
+    s = _command(sub, "evaluate", "simulate a plan and print its four metrics", cmd_evaluate)
     s.add_argument("instance", metavar="INSTANCE")
     s.add_argument("plan", metavar="PLAN", help="a plan object or a whole result JSON")
     s.add_argument("--json", action="store_true", help="print a JSON object with key 'metrics'")
-    s.set_defaults(func=cmd_evaluate)
 
-    s = sub.add_parser("generate", help="random networks with the paper's distributions")
+    s = _command(sub, "generate", "random networks with the paper's distributions", cmd_generate)
     s.add_argument("--sensors", type=int, default=4, help="N (default 4)")
     s.add_argument("--horizon", type=int, default=30, help="T (default 30)")
     s.add_argument("--width", type=float, default=5.0)
@@ -238,12 +240,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--count", type=int, default=1)
     s.add_argument("--name", default=None, help="name prefix of the instances")
     s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
-    s.set_defaults(func=cmd_generate)
 
     s = sub.add_parser("solve", help="solve an instance and write the result JSON")
     s.add_argument("instance", metavar="INSTANCE")
     s.add_argument("--method", default="milp", help=f"one of {', '.join(voiopt.METHODS)} (default milp)")
-    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES), help="(default mean-min-voi)")
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="seconds (default: none)")
     s.add_argument("--gap", type=float, default=None, metavar="G", help="milp: relative MIP gap (default 0: exact)")
     s.add_argument("--threads", type=_count, default=None, metavar="K", help="milp: HiGHS threads (default: HiGHS's)")
@@ -258,44 +259,38 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--verbose", action="store_true", help="milp: show HiGHS's own log on stderr")
     s.set_defaults(func=cmd_solve)
 
-    s = sub.add_parser("export", help="write the MILP of an instance as MPS or LP (by extension)")
+    s = _command(sub, "export", "write the MILP of an instance as MPS or LP (by extension)", cmd_export)
     s.add_argument("instance", metavar="INSTANCE")
     s.add_argument("model", metavar="MODEL", help="output file, .mps or .lp")
-    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
-    s.set_defaults(func=cmd_export)
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES))
 
-    s = sub.add_parser("gap-report", help="proven optimality gaps of several methods over many networks")
+    s = _command(sub, "gap-report", "proven optimality gaps of several methods over many networks", cmd_gap_report)
     s.add_argument("instances", nargs="+", metavar="INSTANCES", help="instance files or folders of them")
     s.add_argument("--methods", default="dp,qlearning,aoi-qlearning,shortest-path", help="comma-separated")
-    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES))
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="per run (default: none)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
     s.add_argument("-o", "--output", required=True, metavar="DIR")
     s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_gap_report)
 
-    s = sub.add_parser("figures", help="reproduce the paper's figures with the proven optimum")
+    s = _command(sub, "figures", "reproduce the paper's figures with the proven optimum", cmd_figures)
     s.add_argument("--out", required=True, metavar="DIR")
     s.add_argument("--networks", type=int, default=40, help="networks per setting (default 40)")
     s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="dp limit per network (default 60)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
     s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_figures)
 
-    s = sub.add_parser("plot", help="draw the trajectory of a result")
+    s = _command(sub, "plot", "draw the trajectory of a result", cmd_plot)
     s.add_argument("result", metavar="RESULT")
     s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: instances/NAME.json")
     s.add_argument("-o", "--output", required=True, metavar="PNG")
-    s.set_defaults(func=cmd_plot)
 
-    s = sub.add_parser("methods", help="list the solution methods")
-    s.set_defaults(func=lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])
+    s = _command(sub, "methods", "list the solution methods", lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])
 
-    s = sub.add_parser("demo", help="run the main job on the shipped case study")
+    s = _command(sub, "demo", "run the main job on the shipped case study", cmd_demo)
     s.add_argument("instance", nargs="?", default=None, metavar="INSTANCE")
-    s.set_defaults(func=cmd_demo)
     return p
 
 

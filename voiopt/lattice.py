@@ -13,7 +13,6 @@ import numpy as np
 
 from voiopt.instance import LATTICE_TOL, Instance
 
-MOVE_NAMES = ("stay", "N", "S", "E", "W")
 MOVES = np.array([(0, 0), (0, 1), (0, -1), (1, 0), (-1, 0)], dtype=np.int64)
 
 
@@ -49,6 +48,12 @@ class Lattice:
     def reachable(self, t: int) -> np.ndarray:
         """Bool mask of the points the entity can stand on in slot t."""
         return self.steps_from(self.start) <= t
+
+
+def unservable_sensors(instance: Instance) -> list[int]:
+    """The sensors with no lattice point within d_th: no plan can ever schedule them."""
+    lat = build(instance)
+    return [i for i in range(instance.n_sensors) if not lat.in_range[i].any()]
 
 
 @lru_cache(maxsize=64)

@@ -17,8 +17,10 @@ from voiopt import lattice as lattice_mod
 from voiopt import physics
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
-from voiopt.result import Plan, Result
-from voiopt.simulate import check_objective
+from voiopt.objectives import check_objective
+from voiopt.plan import Plan
+from voiopt.result import Result
+from voiopt.simulate import advance
 
 EXACT_TOUR_MAX_SENSORS = 7  # exact order enumeration up to N! = 5040 orders
 
@@ -57,12 +59,7 @@ class _Slot:
         Score: leximin of the VoI vector (lowest VoI first), or for AoI objectives the leximax
         of the ages negated, so ties on the bottleneck are broken by the next-worst sensor."""
         us = self.uploads(p)
-        A = np.repeat((aoi + 1)[None, :], len(us), axis=0)
-        Q = np.repeat(dist[None, :], len(us), axis=0)
-        for r, u in enumerate(us):
-            if u >= 0:
-                A[r, u] = 1
-                Q[r, u] = self.lat.distance[u, p]
+        A, Q = (np.array(rows) for rows in zip(*(advance(aoi, dist, u, self.lat.distance[u, p]) for u in us), strict=True))
         if self.aoi_objective:
             scores = [tuple(-np.sort(a)[::-1]) for a in A]
         else:
@@ -206,9 +203,7 @@ def shortest_path(instance: Instance, objective: str, *, progress: bool = False,
         p = cycle[t % len(cycle)]
         in_range = np.flatnonzero(lat.in_range[:, p])
         u = int(in_range[np.argmax(aoi[in_range])]) if len(in_range) else -1
-        aoi += 1
-        if u >= 0:
-            aoi[u] = 1
+        aoi, _ = advance(aoi, aoi, u, 1)  # ages only
         idx.append(p)
         sched.append(u)
     plan = Plan.from_indices(instance, idx, sched)

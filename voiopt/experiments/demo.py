@@ -13,13 +13,13 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from voiopt import instance
-from voiopt.generate import CASE_STUDY_PLAN, case_study
-from voiopt.result import Plan, Result
-from voiopt.simulate import OBJECTIVES, sense
+from voiopt import instance, objectives
+from voiopt.generate import case_study, case_study_plan
+from voiopt.objectives import DEFAULT as OBJECTIVE
+from voiopt.objectives import OBJECTIVES
+from voiopt.result import Result
 from voiopt.solvers import RANDOMISED, solve
 
-OBJECTIVE = "mean-min-voi"
 SEEDS = (0, 1, 2)
 RUNS = [  # (label, method, what it is, options)
     ("dp", "dp", "exact label-setting programme: the proven optimum", {}),
@@ -31,10 +31,6 @@ RUNS = [  # (label, method, what it is, options)
     ("shortest-path", "shortest-path", "the paper's shortest-path scheme", {}),
     ("greedy", "greedy", "one-step greedy", {}),
 ]
-
-
-def _gap(best_bound: float | None, value: float) -> float | None:
-    return None if best_bound is None else abs(best_bound - value) / abs(best_bound)
 
 
 def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo") -> int:
@@ -65,17 +61,16 @@ def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo
             r.save(Path(out_dir) / f"{inst.name}__{stem}{'' if seed is None else f'__seed{seed}'}.json")
             results.append((label if seed is None else f"{label} (seed {seed})", r))
     if not path:
-        example = Result.from_plan(inst, "example", OBJECTIVE, Plan.from_dict(CASE_STUDY_PLAN), status="feasible")
+        example = Result.from_plan(inst, "example", OBJECTIVE, case_study_plan(), status="feasible")
         results.append(("example", example))
         console.print("example: the hand-made plan shipped in instances/case-study.plan.json", style="dim")
 
-    bounds = [r.bound for _, r in results if r.bound is not None]
-    best_bound = (min if sense(OBJECTIVE) == "max" else max)(bounds) if bounds else None
+    best_bound = objectives.tightest(OBJECTIVE, (r.bound for _, r in results))
     table = Table(title=f"{inst.name}: every value simulated from the plan; gap = proven distance to the optimum")
     for col in ("plan", "status", *OBJECTIVES, "gap", "time"):
         table.add_column(col, justify="left" if col in ("plan", "status") else "right")
     for label, r in results:
-        gap = _gap(best_bound, r.value)
+        gap = objectives.gap(r.value, best_bound)
         table.add_row(label, r.status, *(f"{r.metrics[m]:.6g}" for m in OBJECTIVES),
                       "-" if gap is None else f"{100 * gap:.2f} %", f"{r.runtime_s:.2f} s")
     console.print(table)
@@ -83,7 +78,7 @@ def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo
         for label, reading in (("qlearning", "V in bit/s, penalty 100: the paper as written"),
                                ("qlearning bit/s/Hz", "V / B, penalty 100")):
             runs = [r for row, r in results if row.startswith(f"{label} (seed")]
-            gaps = [_gap(best_bound, r.value) for r in runs]
+            gaps = [objectives.gap(r.value, best_bound) for r in runs]
             console.print(
                 f"The paper's Q-learning ({reading}), seeds {SEEDS[0]}-{SEEDS[-1]}: mean {statistics.fmean(r.value for r in runs):.6g} "
                 f"bit/s of a proven optimum of {best_bound:.6g} bit/s, a certified gap of "
