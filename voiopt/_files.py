@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import os
+import re
 import tempfile
 from collections.abc import Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from voiopt.errors import InstanceError
+from voiopt.errors import InstanceError, OptionError
 
 
 def _reject_constant(name: str) -> float:
@@ -94,3 +96,43 @@ def write_csv(path: Path, rows: Sequence[dict[str, Any]], columns: Sequence[str]
 def read_csv(path: Path) -> list[dict[str, str]]:
     with open(path, encoding="utf-8") as f:
         return list(csv.DictReader(line for line in f if not line.startswith("#")))
+
+
+def safe_name(name: str) -> str:
+    """A file-name stem for an instance name: letters, digits, '.', '_' and '-' only, no
+    leading dot, at most 80 characters; where that changed the name, a hash of the full name is
+    appended so that two names never share a file."""
+    stem = re.sub(r"[^A-Za-z0-9._-]", "_", name).lstrip(".")[:80] or "instance"
+    if stem != name:
+        stem += "-" + hashlib.sha256(name.encode("utf-8", "surrogatepass")).hexdigest()[:10]
+    return stem
+
+
+def check_output_file(path: str | os.PathLike, what: str = "-o/--output") -> Path:
+    """Before any work: the file can be written (its folder exists and is writable, and it is
+    not itself a folder); an OptionError naming the path otherwise."""
+    p = Path(path)
+    if p.is_dir():
+        raise OptionError(f"{what}: {str(p)!r} is a directory; give a file name")
+    parent = p.parent
+    if not parent.is_dir():
+        raise OptionError(f"{what}: the folder {str(parent)!r} of {str(p)!r} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise OptionError(f"{what}: {str(p)!r} cannot be written (no permission)")
+    return p
+
+
+def check_output_dir(path: str | os.PathLike, what: str = "-o/--output") -> Path:
+    """Before any work: the folder exists and is writable, or can be made in a writable parent."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise OptionError(f"{what}: {str(p)!r} is a file, not a folder")
+    if p.is_dir():
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise OptionError(f"{what}: the folder {str(p)!r} cannot be written (no permission)")
+        return p
+    if not p.parent.is_dir():
+        raise OptionError(f"{what}: the folder {str(p.parent)!r} of {str(p)!r} does not exist")
+    if not os.access(p.parent, os.W_OK | os.X_OK):
+        raise OptionError(f"{what}: the folder {str(p)!r} cannot be made in {str(p.parent)!r} (no permission)")
+    return p

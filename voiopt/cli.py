@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 from pathlib import Path
 
@@ -13,11 +14,14 @@ from rich.table import Table
 import voiopt
 from voiopt import instance as instance_mod
 from voiopt import lattice
+from voiopt._files import check_output_dir, check_output_file
 from voiopt.errors import OptionError, VoioptError
 from voiopt.generate import generate as generate_one
 from voiopt.generate import generate_set, write_set
 from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
+from voiopt.solvers.base import DEFAULT_MEMORY_GB
+from voiopt.stop import last_signal
 
 out = Console(highlight=False, soft_wrap=True)
 err = Console(stderr=True, highlight=False, soft_wrap=True)
@@ -94,6 +98,7 @@ def cmd_generate(args) -> int:
         inst = generate_one(seed=args.seed, name=args.name, **kwargs)
         print(json.dumps(inst.to_dict(), indent=2))
         return 0
+    check_output_dir(args.out, "--out")
     insts = generate_set(args.count, seed=args.seed, name=args.name, **kwargs)
     paths = write_set(insts, args.out)
     out.print(f"wrote {len(paths)} instance(s) to {args.out}", markup=False)
@@ -116,10 +121,8 @@ def _solve_options(args) -> dict:
 
 
 def cmd_solve(args) -> int:
-    if args.time_limit is not None and not args.time_limit > 0:
-        raise OptionError(f"--time-limit: must be > 0 seconds, got {args.time_limit:g}")
-    if args.gap is not None and not args.gap >= 0:
-        raise OptionError(f"--gap: must be >= 0, got {args.gap:g}")
+    if args.output:
+        check_output_file(args.output)  # before the work, not after it
     inst = instance_mod.load(args.instance)
     result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args))
     if args.output:
@@ -131,12 +134,16 @@ def cmd_solve(args) -> int:
         out.print(_metrics_table({args.method: result.metrics}) if result.metrics else "no plan")
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
+    if result.status == "interrupted":  # the best plan is kept (and written), but the run did not finish
+        err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is kept", markup=False)
+        return 128 + (last_signal() or signal.SIGINT)
     return 0 if result.status != "error" else 1
 
 
 def cmd_export(args) -> int:
     from voiopt.models.milp import export
 
+    check_output_file(args.model, "MODEL")
     inst = instance_mod.load(args.instance)
     export(inst, args.objective, args.model)
     out.print(f"wrote {args.model}", markup=False)
@@ -147,11 +154,15 @@ def cmd_gap_report(args) -> int:
     from voiopt.experiments.gaps import gap_report
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    notes: list[str] = []
     gap_report(
         args.instances, methods, args.objective, args.output, time_limit=args.time_limit,
-        episodes=args.episodes, seed=args.seed, seeds=args.seeds, reward_units=args.reward_units,
-        workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
+        memory_limit=args.memory_limit, episodes=args.episodes, seed=args.seed, seeds=args.seeds,
+        reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler,
+        progress=not args.quiet, notes=notes,
     )
+    for note in notes:
+        err.print(note, markup=False)
     if not args.quiet:
         md = (Path(args.output) / "summary.md").read_text(encoding="utf-8")
         out.print(md.split("![")[0].rstrip(), markup=False)
@@ -164,6 +175,7 @@ def cmd_figures(args) -> int:
 
     files = make_figures(
         args.out, networks=args.networks, episodes=args.episodes, time_limit=args.time_limit,
+        memory_limit=args.memory_limit,
         seed=args.seed, seeds=args.seeds, reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
@@ -197,6 +209,8 @@ def _command(sub, name: str, help: str, func) -> argparse.ArgumentParser:
 
 
 def _add_executor_options(s: argparse.ArgumentParser) -> None:
+    s.add_argument("--memory-limit", type=float, default=DEFAULT_MEMORY_GB, metavar="GB",
+                   help=f"per run (default {DEFAULT_MEMORY_GB:g})")
     s.add_argument("--workers", type=int, default=1, metavar="K", help="parallel processes (default 1)")
     s.add_argument("--dask-scheduler", default=None, metavar="ADDRESS",
                    help="tcp://HOST:PORT of a Dask cluster, or 'local' for a LocalCluster (needs voiopt[dask])")
@@ -251,7 +265,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_qlearning_options(s, seeds=False)
     s.add_argument("--seed", type=_count, default=None, metavar="S",
                    help="seed of a randomised method (default 0)")
-    s.add_argument("--memory-limit", type=float, default=None, metavar="GB", help="dp: memory limit (default: none)")
+    s.add_argument("--memory-limit", type=float, default=None, metavar="GB",
+                   help=f"stop with the best plan when the method's memory passes this (default {DEFAULT_MEMORY_GB:g})")
     s.add_argument("--warm-start", default=None, metavar="PLAN", help="milp, dp: a plan or result JSON to start from")
     s.add_argument("-o", "--output", default=None, metavar="RESULT", help="write the result JSON here")
     s.add_argument("--json", action="store_true", help="print the result JSON to stdout")
@@ -302,9 +317,10 @@ def main(argv: list[str] | None = None) -> int:
     except VoioptError as e:
         err.print(f"voiopt: error: {e}", markup=False)
         return 2
-    except KeyboardInterrupt:
-        err.print("voiopt: interrupted", markup=False)
-        return 130
+    except KeyboardInterrupt as e:  # a sweep stopped as a whole, or a second Ctrl-C
+        code = getattr(e, "exit_code", 128 + (last_signal() or signal.SIGINT))
+        err.print(f"voiopt: interrupted ({signal.Signals(code - 128).name}); finished results are kept", markup=False)
+        return code
 
 
 

@@ -72,7 +72,7 @@ def write_set(instances: list[Instance], out_dir: str | os.PathLike) -> list[Pat
     out = Path(out_dir)
     paths = []
     for inst in instances:
-        p = out / f"{inst.name}.json"
+        p = out / f"{_files.safe_name(inst.name)}.json"
         instance_mod.save(inst, p)
         paths.append(p)
     return paths

@@ -50,6 +50,17 @@ class Lattice:
         return self.steps_from(self.start) <= t
 
 
+def shape(instance: Instance) -> tuple[int, int]:
+    """(nx, ny): the lattice points per row and per column (MODEL.md section 2)."""
+    step = instance.step
+    return (math.floor(instance.width / step + LATTICE_TOL) + 1, math.floor(instance.height / step + LATTICE_TOL) + 1)
+
+
+def n_points(instance: Instance) -> int:
+    nx, ny = shape(instance)
+    return nx * ny
+
+
 def unservable_sensors(instance: Instance) -> list[int]:
     """The sensors with no lattice point within d_th: no plan can ever schedule them."""
     lat = build(instance)
@@ -59,8 +70,7 @@ def unservable_sensors(instance: Instance) -> list[int]:
 @lru_cache(maxsize=64)
 def build(instance: Instance) -> Lattice:
     step = instance.step
-    nx = math.floor(instance.width / step + LATTICE_TOL) + 1
-    ny = math.floor(instance.height / step + LATTICE_TOL) + 1
+    nx, ny = shape(instance)
     k, l = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     coords = np.stack([k.ravel(), l.ravel()], axis=1).astype(np.int64)
     points = coords * step

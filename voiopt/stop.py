@@ -66,28 +66,64 @@ class Stop:
         return "not stopped"
 
 
+class Interrupted(KeyboardInterrupt):
+    """Work stopped by a signal as a whole (a sweep, or a second Ctrl-C). ``exit_code`` is
+    128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM."""
+
+    def __init__(self, signum: int | None = None) -> None:
+        self.signum = signum or signal.SIGINT
+        super().__init__(signal.Signals(self.signum).name)
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + int(self.signum)
+
+
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_active: list[Stop] = []  # the Stops of the watches open in the main thread, outermost first
+_previous: dict = {}  # the handlers before the outermost watch
+
+
+_last_signal: list[int] = []
+
+
+def last_signal() -> int | None:
+    """The signal that last asked this process to stop (None: none did)."""
+    return _last_signal[-1] if _last_signal else None
+
+
+def _handler(signum, frame) -> None:
+    _last_signal.append(signum)
+    if any(s.reason == INTERRUPTED for s in _active):  # the second request: stop at once
+        _restore()
+        raise Interrupted(signum)
+    for s in _active:
+        s.request(INTERRUPTED, signum)
+
+
+def _restore() -> None:
+    for s, h in _previous.items():
+        signal.signal(s, h)
+    _previous.clear()
+
+
 @contextmanager
-def watch(time_limit: float | None = None, memory_limit: float | None = None, stop: Stop | None = None):
-    """A Stop for the block. In the main thread the first Ctrl-C or SIGTERM requests the stop;
-    a second one raises KeyboardInterrupt at once. Elsewhere (worker threads) signals cannot
-    be caught and only the limits apply. An enclosing watch may pass its own ``stop``."""
-    stop = stop or Stop(time_limit, memory_limit)
+def watch(time_limit: float | None = None, memory_limit: float | None = None):
+    """A Stop for the block. In the main thread the first Ctrl-C or SIGTERM requests a stop of
+    every watch open (a sweep and the solve inside it alike); a second one raises Interrupted
+    at once. Elsewhere (worker threads) signals cannot be caught and only the limits apply."""
+    stop = Stop(time_limit, memory_limit)
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
-    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
-
-    def handler(signum, frame):
-        if stop.reason == INTERRUPTED:
-            for s, h in previous.items():
-                signal.signal(s, h)
-            raise KeyboardInterrupt
-        stop.request(INTERRUPTED, signum)
-
-    for s in previous:
-        signal.signal(s, handler)
+    if not _active:
+        _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
+        for s in _SIGNALS:
+            signal.signal(s, _handler)
+    _active.append(stop)
     try:
         yield stop
     finally:
-        for s, h in previous.items():
-            signal.signal(s, h)
+        _active.remove(stop)
+        if not _active:
+            _restore()

@@ -78,9 +78,16 @@ def test_time_limit_returns_a_legal_plan_and_a_valid_bound(objective):
 
 def test_memory_limit_stops_with_the_best_plan_and_bound():
     inst = voiopt.generate(6, 30, seed=5)
-    r = dp.solve(inst, "mean-min-voi", memory_limit=1e-9)
-    assert r.status == "memory_limit" and r.solver["stopped"] == "memory limit of 1e-09 GB reached"
-    assert r.bound >= r.value
+    limit = dp.table_bytes(inst) / 1e9 + 1e-4  # the tables fit; the labels do not
+    r = dp.solve(inst, "mean-min-voi", memory_limit=limit)
+    assert r.status == "memory_limit" and r.solver["stopped"] == f"memory limit of {limit:g} GB reached"
+    assert r.bound >= r.value and voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value
+
+
+def test_tables_over_the_memory_limit_are_refused_before_any_allocation():
+    inst = voiopt.generate(2, 6000, seed=5)  # the best-rank table alone, 2 N n T^2 bytes, is 5 GB
+    with pytest.raises(OptionError, match=r"--memory-limit: dp's tables need.* over the limit of 4 GB"):
+        dp.solve(inst, "mean-min-voi")
 
 
 def test_warm_start_is_used_and_optimum_unchanged(case_study):

@@ -15,9 +15,15 @@ from pathlib import Path
 from typing import Any
 
 from voiopt import instance as instance_mod
-from voiopt._files import atomic_write, read_csv, write_csv
+from voiopt._files import atomic_write, check_output_dir, read_csv, safe_name, write_csv
 from voiopt.errors import OptionError
-from voiopt.experiments.runner import check_manifest, check_seeds, method_tasks, run_tasks
+from voiopt.experiments.runner import (
+    check_manifest,
+    check_seeds,
+    check_workers,
+    method_tasks,
+    run_tasks,
+)
 from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
@@ -26,6 +32,7 @@ from voiopt.objectives import OBJECTIVES
 from voiopt.plots import SCHEMES, case_study_figures, plot_sweep
 from voiopt.result import Result, load_result
 from voiopt.solvers import RANDOMISED
+from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 
 
 @dataclass(frozen=True)
@@ -54,8 +61,9 @@ SWEEPS = (
 )
 
 
-def _sweep_instances(sweep: Sweep, networks: int, seed: int, out: Path) -> dict[float, list[Path]]:
-    """The networks of each sweep value, written once.
+def _sweep_instances(sweep: Sweep, networks: int, seed: int, out: Path) -> dict[float, list[tuple[Path, Instance]]]:
+    """The networks of each sweep value, written once (for the record; the runs take them from
+    memory).
 
     Every value uses the same seed (common random numbers): along the power and drho sweeps
     network k keeps its positions, start and uniform draws, and only the swept parameter
@@ -64,7 +72,7 @@ def _sweep_instances(sweep: Sweep, networks: int, seed: int, out: Path) -> dict[
     for v in sweep.values:
         folder = out / "instances" / sweep.key / f"{v:g}"
         insts = generate_set(networks, seed=seed, name=f"{sweep.key}-{v:g}-seed{seed}", **sweep.generator_kwargs(v))
-        paths[v] = write_set(insts, folder)
+        paths[v] = list(zip(write_set(insts, folder), insts, strict=True))
     return paths
 
 
@@ -103,6 +111,7 @@ def make_figures(
     networks: int = 40,
     episodes: int | None = None,
     time_limit: float = 60.0,
+    memory_limit: float = DEFAULT_MEMORY_GB,
     seed: int = 0,
     seeds: int = 3,
     reward_units: str = "bit/s",
@@ -112,27 +121,31 @@ def make_figures(
     case_study_instance: Instance | None = None,
 ) -> list[Path]:
     """Reproduce Figs. 3-7 with the proven optimum; return the files written."""
-    if networks < 1:
-        raise OptionError(f"--networks: must be >= 1, got {networks}")
+    if isinstance(networks, bool) or not isinstance(networks, int) or networks < 1:
+        raise OptionError(f"--networks: must be an integer >= 1, got {networks!r}")
     check_seeds(seeds)
     check_reward_units(reward_units)
-    out = Path(out_dir)
-    opts = dict(time_limit=time_limit, episodes=episodes, reward_units=reward_units, threads=1)
+    check_limits(time_limit, memory_limit)
+    check_workers(workers)
+    out = check_output_dir(out_dir, "--out")
+    opts = dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
+                threads=1)
     check_manifest(out, {"command": "figures", "networks": networks, "seed": seed, "seeds": seeds, **opts})
 
     # the case study (Figs. 3 and 4): the plans drawn are those of the first seed
     inst = case_study_instance or case_study()
-    cs_path = out / "instances" / f"{inst.name}.json"
+    cs_path = out / "instances" / f"{safe_name(inst.name)}.json"
     instance_mod.save(inst, cs_path)
-    cs_tasks = method_tasks(cs_path, inst.name, list(SCHEMES), OBJECTIVE, out / "results" / "case-study",
-                            seed, seeds, **opts)
+    cs_tasks = method_tasks(inst, cs_path, list(SCHEMES), OBJECTIVE, out / "results" / "case-study",
+                            seed, seeds, group="case study", **opts)
     tasks = list(cs_tasks)
-    sweep_tasks: dict[str, tuple[Sweep, dict[float, list[Path]], list]] = {}
+    sweep_tasks: dict[str, tuple[Sweep, dict[float, list[tuple[Path, Instance]]], list]] = {}
     for sweep in SWEEPS:
-        inst_paths = _sweep_instances(sweep, networks, seed, out)
-        ts = [t for v in sweep.values for p in inst_paths[v]
-              for t in method_tasks(p, p.stem, list(SCHEMES), OBJECTIVE, out / "results" / sweep.key, seed, seeds, **opts)]
-        sweep_tasks[sweep.key] = (sweep, inst_paths, ts)
+        insts = _sweep_instances(sweep, networks, seed, out)
+        ts = [t for v in sweep.values for p, i in insts[v]
+              for t in method_tasks(i, p, list(SCHEMES), OBJECTIVE, out / "results" / sweep.key, seed, seeds,
+                                    group=f"{sweep.key} {sweep.x_label} = {v:g}", **opts)]
+        sweep_tasks[sweep.key] = (sweep, insts, ts)
         tasks += ts
     run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="figure runs")
 
@@ -153,10 +166,10 @@ def make_figures(
     for m, r in cs_results.items():
         mt = r.metrics or {}
         md.append(f"| {SCHEMES[m]} | {r.status} | " + " | ".join(f"{mt.get(k, float('nan')):.6g}" for k in OBJECTIVES) + " |")
-    for key, (sweep, inst_paths, ts) in sweep_tasks.items():
+    for key, (sweep, insts, ts) in sweep_tasks.items():
         results: dict[tuple[float, str], list[tuple[int | None, Result]]] = {}
         for v in sweep.values:
-            stems = {p.stem for p in inst_paths[v]}
+            stems = {i.name for _, i in insts[v]}
             for m in SCHEMES:
                 results[(v, m)] = [(t.seed, load_result(t.out_path)) for t in ts if t.method == m and t.instance_name in stems]
         rows = _aggregate(sweep, results)

@@ -12,11 +12,13 @@ import math
 
 import numpy as np
 
+from voiopt import lattice as lattice_mod
 from voiopt import objectives
-from voiopt.errors import OptionError
+from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
 from voiopt.plan import Plan
 from voiopt.simulate import check_plan, simulate_indices
+from voiopt.stop import GB
 
 DEFAULT_MEMORY_GB = 4.0  # every method's memory limit unless told otherwise
 
@@ -40,6 +42,28 @@ def check_seed(seed: int) -> None:
 def check_threads(threads: int | None) -> None:
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
         raise OptionError(f"--threads: must be an integer >= 1, got {threads!r}")
+
+
+def require_memory(nbytes: float, memory_limit: float | None, what: str) -> None:
+    """Refuse, before allocating, work whose tables alone would pass the memory limit: there is
+    no plan yet to return, so this is a one-line error (exit 2), not a status."""
+    if memory_limit is not None and nbytes > memory_limit * GB:
+        raise MemoryLimitError(
+            f"--memory-limit: {what} need about {nbytes / GB:.3g} GB, over the limit of {memory_limit:g} GB "
+            "(raise --memory-limit, or make the instance smaller)"
+        )
+
+
+def lattice_bytes(instance: Instance) -> float:
+    """The size of the lattice tables every method builds: distances and ranges per sensor
+    and point (lattice.build)."""
+    n = lattice_mod.n_points(instance)
+    return instance.n_sensors * n * 9.0 + n * 80.0
+
+
+def points_in_range(instance: Instance) -> float:
+    """An upper bound on the lattice points within d_th of one sensor (no lattice needed)."""
+    return (2.0 * instance.channel.d_th / instance.step + 2.0) ** 2
 
 
 class Incumbent:

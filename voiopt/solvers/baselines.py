@@ -8,25 +8,31 @@ from __future__ import annotations
 
 import itertools
 import math
-import time
 
 import networkx as nx
 import numpy as np
 
 from voiopt import lattice as lattice_mod
-from voiopt import physics
-from voiopt.errors import OptionError
+from voiopt import objectives, physics
 from voiopt.instance import Instance
 from voiopt.objectives import check_objective
 from voiopt.plan import Plan
 from voiopt.result import Result
 from voiopt.simulate import advance
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    check_limits,
+    check_seed,
+    lattice_bytes,
+    require_memory,
+)
+from voiopt.stop import Stop, watch
 
 EXACT_TOUR_MAX_SENSORS = 7  # exact order enumeration up to N! = 5040 orders
 
 
 def _is_aoi(objective: str) -> bool:
-    return "aoi" in check_objective(objective)
+    return objectives.get(objective).worth == "aoi"
 
 
 def _steps_to_sensor(instance: Instance) -> np.ndarray:
@@ -77,14 +83,24 @@ class _Slot:
         return int(np.argmax(badness))
 
 
-def greedy(instance: Instance, objective: str, *, progress: bool = False) -> Result:
+def greedy(instance: Instance, objective: str, *, progress: bool = False, time_limit: float | None = None,
+           memory_limit: float = DEFAULT_MEMORY_GB) -> Result:
     """Each slot, the upload and move that make the next slot best (min VoI, or max AoI).
 
     Ties are broken in turn by: the best next-but-one slot with the best upload at the new
     position (one-step lookahead); the whole next VoI vector, lowest first (AoI: the ages,
     largest first); fewest moves into range of the then worst sensor; the lookahead's whole
-    vector; finally the order none < sensor 0 < ... and stay < N < S < E < W. Deterministic."""
-    t0 = time.perf_counter()
+    vector; finally the order none < sensor 0 < ... and stay < N < S < E < W. Deterministic.
+    Stopped early (time, memory, Ctrl-C), the entity stays and uploads nothing from then on."""
+    check_objective(objective)
+    check_limits(time_limit, memory_limit)
+    N, n = instance.n_sensors, lattice_mod.n_points(instance)
+    require_memory(lattice_bytes(instance) + 8.0 * N * n + 16.0 * (N + 1) * N, memory_limit, "greedy's tables")
+    with watch(time_limit, memory_limit) as stop:
+        return _greedy(instance, objective, stop)
+
+
+def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
     aoi_objective = _is_aoi(objective)
     slot = _Slot(instance, aoi_objective)
     lat = slot.lat
@@ -97,6 +113,8 @@ def greedy(instance: Instance, objective: str, *, progress: bool = False) -> Res
     for _ in range(instance.horizon):
         best_key, best = None, None
         for u, a1, q1, score1 in slot.step(aoi, dist, p):
+            if stop.check():
+                break
             worst = slot.bottleneck(a1, q1, reachable)
             for m in range(5):
                 p1 = int(lat.neighbors[p, m])
@@ -107,15 +125,20 @@ def greedy(instance: Instance, objective: str, *, progress: bool = False) -> Res
                 key = (score1[0], lookahead[0], score1, -steps, lookahead)
                 if best_key is None or key > best_key:
                     best_key, best = key, (u, m, a1, q1, p1)
+        if stop.requested:
+            break
         u, _, aoi, dist, p1 = best
         idx.append(p)
         sched.append(u)
         p = p1
-    plan = Plan.from_indices(instance, idx, sched)
+    solver = {"rule": "aoi" if aoi_objective else "voi", "lookahead": 1}
+    if stop.requested:
+        solver["stopped"] = f"{stop.describe()} after {len(idx)} of {instance.horizon} slots; then staying idle"
+        idx += [p] * (instance.horizon - len(idx))
+        sched += [-1] * (instance.horizon - len(sched))
     return Result.from_plan(
-        instance, "greedy", objective, plan, status="feasible",
-        runtime_s=time.perf_counter() - t0,
-        solver={"rule": "aoi" if aoi_objective else "voi", "lookahead": 1},
+        instance, "greedy", objective, Plan.from_indices(instance, idx, sched), status=stop.reason or "feasible",
+        runtime_s=stop.elapsed(), solver=solver,
     )
 
 
@@ -147,13 +170,35 @@ def _best_points_for_order(order, candidates, dist, start) -> tuple[float, list[
     return min(((c + dist[p][start], ps) for p, (c, ps) in cost.items()), key=lambda x: x[0])
 
 
-def _tour(instance: Instance, g: nx.Graph, seed: int) -> tuple[list[int], dict]:
-    """Waypoints (one in-range point per servable sensor) of a shortest closed walk from start."""
+class _Moves:
+    """dist[p][q]: the fewest moves between lattice points p and q (Manhattan on the full
+    lattice), without a table of all pairs."""
+
+    def __init__(self, coords: np.ndarray) -> None:
+        self.coords = coords
+
+    def __getitem__(self, p: int):
+        row = self.coords[p]
+        coords = self.coords
+
+        class _Row:
+            def __getitem__(self, q: int) -> int:
+                return int(abs(coords[q, 0] - row[0]) + abs(coords[q, 1] - row[1]))
+
+        return _Row()
+
+
+HEURISTIC_TOUR_MAX_SENSORS = 200  # simulated annealing up to here; nearest neighbour above
+
+
+def _tour(instance: Instance, stop: Stop, seed: int) -> tuple[list[int], dict]:
+    """Waypoints (one in-range point per servable sensor) of a shortest closed walk from start.
+    Stopped early, the sensors' index order is the tour."""
     lat = lattice_mod.build(instance)
     start = lat.start
     servable = [i for i in range(instance.n_sensors) if lat.in_range[i].any()]
     candidates = {i: np.flatnonzero(lat.in_range[i]).tolist() for i in servable}
-    dist = dict(nx.all_pairs_shortest_path_length(g))
+    dist = _Moves(lat.coords)
     info = {"unservable_sensors": [i for i in range(instance.n_sensors) if i not in servable]}
     if len(servable) <= EXACT_TOUR_MAX_SENSORS:
         best = (math.inf, [])
@@ -161,7 +206,19 @@ def _tour(instance: Instance, g: nx.Graph, seed: int) -> tuple[list[int], dict]:
             cand = _best_points_for_order(order, candidates, dist, start)
             if cand[0] < best[0]:
                 best = cand
-        info["tour"] = "exact"
+            if stop.check():
+                break
+        info["tour"] = "exact" if not stop.requested else "best order found before the stop"
+    elif len(servable) > HEURISTIC_TOUR_MAX_SENSORS or stop.check():
+        order, left, here = [], set(servable), [start]
+        while left and not stop.check():  # nearest neighbour, from the start
+            nxt = min(left, key=lambda i: (min(dist[x][y] for x in here for y in candidates[i]), i))
+            order.append(nxt)
+            left.discard(nxt)
+            here = candidates[nxt]
+        order += sorted(left)
+        best = _best_points_for_order(order, candidates, dist, start)
+        info["tour"] = "heuristic: nearest neighbour order + exact point choice"
     else:
         # Heuristic: an order from networkx's TSP (simulated annealing, fixed seed) over the
         # sensors with the fewest moves between their in-range sets, then the exact DP above
@@ -182,17 +239,25 @@ def _tour(instance: Instance, g: nx.Graph, seed: int) -> tuple[list[int], dict]:
     return best[1], info
 
 
-def shortest_path(instance: Instance, objective: str, *, progress: bool = False, seed: int = 0) -> Result:
+def shortest_path(instance: Instance, objective: str, *, progress: bool = False, seed: int = 0,
+                  time_limit: float | None = None, memory_limit: float = DEFAULT_MEMORY_GB) -> Result:
     """The paper's benchmark: the shortest closed walk from start that comes within d_th of
     every sensor, followed cyclically for T slots, uploading the in-range sensor of largest
-    AoI each slot (lowest index on ties). Exact tour for N <= 7, a heuristic above."""
-    t0 = time.perf_counter()
+    AoI each slot (lowest index on ties). Exact tour for N <= 7, a heuristic above; stopped
+    early (time, memory, Ctrl-C), the best tour found so far."""
     check_objective(objective)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise OptionError(f"seed: must be an integer >= 0, got {seed!r}")
+    check_seed(seed)
+    check_limits(time_limit, memory_limit)
+    n = lattice_mod.n_points(instance)
+    require_memory(lattice_bytes(instance) + 1000.0 * n, memory_limit, "shortest-path's lattice graph and tables")
+    with watch(time_limit, memory_limit) as stop:
+        return _shortest_path(instance, objective, stop, int(seed))
+
+
+def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) -> Result:
     lat = lattice_mod.build(instance)
     g = _lattice_graph(instance)
-    waypoints, info = _tour(instance, g, int(seed))
+    waypoints, info = _tour(instance, stop, seed)
     walk = [lat.start]
     for q in [*waypoints, lat.start]:
         walk.extend(nx.shortest_path(g, walk[-1], q)[1:])
@@ -207,7 +272,9 @@ def shortest_path(instance: Instance, objective: str, *, progress: bool = False,
         idx.append(p)
         sched.append(u)
     plan = Plan.from_indices(instance, idx, sched)
+    if stop.requested:
+        info["stopped"] = stop.describe()
     return Result.from_plan(
-        instance, "shortest-path", objective, plan, status="feasible",
-        runtime_s=time.perf_counter() - t0, solver={**info, "seed": int(seed)},
+        instance, "shortest-path", objective, plan, status=stop.reason or "feasible",
+        runtime_s=stop.elapsed(), solver={**info, "seed": int(seed)},
     )

@@ -9,6 +9,7 @@ change the objective are collapsed. The compiled kernels live in ``_dp_core``.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -23,7 +24,13 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    check_limits,
+    lattice_bytes,
+    points_in_range,
+    require_memory,
+)
 from voiopt.stop import TIME_LIMIT, Stop, watch
 
 CHUNK_WORK = 100_000  # (label, upload) pairs per kernel call: the granularity of time checks
@@ -53,6 +60,11 @@ class Tables:
     coords: np.ndarray  # (n, 2) lattice coordinates
     pair: np.ndarray = field(default_factory=lambda: np.empty((0, 0, 0, 0, 0)))  # pair_table, or empty
 
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the tables (they count against the memory limit with the labels)."""
+        return sum(v.nbytes for v in vars(self).values() if isinstance(v, np.ndarray))
+
     def with_pair_bound(self, max_bytes: float = PAIR_TABLE_BYTES) -> None:
         """Compute the pairwise travel table (skipped if it would exceed ``max_bytes``)."""
         from voiopt.solvers import _dp_core as core
@@ -61,6 +73,13 @@ class Tables:
         if N > 1 and self.pair.shape[0] == 0 and N * N * T * n * (T + 1) * 8 <= max_bytes:
             self.pair = core.pair_table(self.W, self.up_rank, self.coords, self.sensor_points,
                                         self.sensor_point_count)
+
+
+def table_bytes(instance: Instance) -> float:
+    """An upper bound on the bytes of build_tables, from the instance's sizes alone."""
+    T, N, n = instance.horizon, instance.n_sensors, lattice_mod.n_points(instance)
+    R = 2.0 + T * points_in_range(instance)  # candidate uploads per sensor
+    return lattice_bytes(instance) + 2.0 * T * n * N + 8.0 * N * R * (T + 1) + 120.0 * N * R + 2.0 * N * n * T * (T + 1)
 
 
 def build_tables(instance: Instance, objective: str) -> Tables:
@@ -187,15 +206,17 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                 while q_hi < n and total + work[q_hi] <= CHUNK_WORK:
                     total += work[q_hi]
                     q_hi += 1
-                out = core.expand(tab.mode, t, l_ranks, l_acc, l_ub, off, tab.neighbors, tab.up_rank,
-                                  tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo, q_hi,
-                                  beam, collapse, tdma, tab.pair)
+                out = _watched(stop, core.expand, tab.mode, t, l_ranks, l_acc, l_ub, off, tab.neighbors,
+                               tab.up_rank, tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo,
+                               q_hi, beam, collapse, tdma, tab.pair)
+                if out[8]:  # halted by the stop rule: this layer is abandoned, its parents stay open
+                    return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stop.reason)
                 out = (*out[:3], idx[out[3]], *out[4:])
                 parts.append(out)
                 generated += int(out[7])
                 q_lo = q_hi
                 if q_lo < n:
-                    stopped = _must_stop(stop, stored + sum(p[0].nbytes for p in parts),
+                    stopped = _must_stop(stop, tab.nbytes + stored + sum(p[0].nbytes for p in parts),
                                          label_budget, labels + sum(len(p[1]) for p in parts))
                     if stopped:
                         break
@@ -217,7 +238,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels")
             if len(acc) == 0:
                 return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, t + 1)
-            stopped = _must_stop(stop, stored + layer_bytes, label_budget, labels)
+            stopped = _must_stop(stop, tab.nbytes + stored + layer_bytes, label_budget, labels)
             if t + 1 < T - 1 and stopped:
                 return _incomplete(ub, ub > inc, labels, generated, peak_layer, peak_bytes, t + 1, stopped)
         keep = np.flatnonzero(ub > inc)
@@ -239,6 +260,26 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
     positions[0] = tab.start
     return SearchOutcome(float(value), (positions, schedule), True, -np.inf, labels, generated, peak_layer,
                          peak_bytes, T)
+
+
+WATCH_S = 0.05  # how often the stop rule is checked while a kernel runs
+
+
+def _watched(stop: Stop, kernel, *args):
+    """Run a nogil kernel (whose last argument is a halt flag) in a thread; the calling thread
+    checks the stop rule every WATCH_S seconds and raises the flag, so a time limit or Ctrl-C
+    stops even one long kernel call within a fraction of a second."""
+    halt = np.zeros(1, dtype=np.uint8)
+    box: list = []
+    worker = threading.Thread(target=lambda: box.append(kernel(*args, halt)), daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(WATCH_S)
+        if stop.check() is not None:
+            halt[0] = 1
+    if not box:
+        raise RuntimeError("dp: a kernel failed in its thread")
+    return box[0]
 
 
 def _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stopped) -> SearchOutcome:
@@ -305,6 +346,7 @@ def solve(
     ``collapse`` and ``bounding`` switch ingredients off for measurements (docs/dp.md)."""
     check_objective(objective)
     check_limits(time_limit, memory_limit)
+    require_memory(table_bytes(instance), memory_limit, "dp's tables")
     startup_s = warm_up()
     with watch(time_limit, memory_limit) as stop:
         return _solve(instance, objective, stop, startup_s, warm_start=warm_start, beam=beam, greedy=greedy,
@@ -343,7 +385,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     out = search(tab, inc(), label_budget=fast_budget, progress=progress, **limits)
     passes.append(("fast", out))
     if not out.complete:
-        plan = _greedy_plan(instance, objective) if greedy and not stop.requested else None
+        plan = _greedy_plan(instance, objective, stop) if greedy and not stop.requested else None
         if plan is not None:
             offer(plan, "greedy")
         if pair_bound and tdma and out.stopped == LABEL_BUDGET:
@@ -390,9 +432,11 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
                             runtime_s=stop.elapsed(), solver=solver)
 
 
-def _greedy_plan(instance: Instance, objective: str) -> Plan | None:
-    try:
-        from voiopt.solvers.baselines import greedy
-    except ImportError:  # the baseline is optional for the DP
+def _greedy_plan(instance: Instance, objective: str, stop: Stop) -> Plan | None:
+    """Greedy's plan as an incumbent, within the time left (its own stop rule follows ours)."""
+    from voiopt.solvers.baselines import greedy
+
+    left = stop.remaining()
+    if left is not None and left <= 0:
         return None
-    return greedy(instance, objective).plan
+    return greedy(instance, objective, time_limit=left, memory_limit=stop.memory_limit).plan

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from voiopt import lattice as lattice_mod
 from voiopt import objectives
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
@@ -29,7 +30,15 @@ from voiopt.objectives import DEFAULT, check_objective
 from voiopt.plan import Plan
 from voiopt.result import Result
 from voiopt.simulate import check_plan
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, check_threads
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    Incumbent,
+    check_limits,
+    check_threads,
+    lattice_bytes,
+    points_in_range,
+    require_memory,
+)
 from voiopt.stop import TIME_LIMIT, Stop, watch
 
 METHOD = "milp"
@@ -66,6 +75,9 @@ def solve(
     if gap is not None and not gap >= 0:
         raise OptionError(f"--gap: must be >= 0, got {gap:g}")
     check_threads(threads)
+    T, n = instance.horizon, lattice_mod.n_points(instance)
+    columns = T * n + T * instance.n_sensors * points_in_range(instance) * (2 if objectives.get(objective).per_slot else 1)
+    require_memory(lattice_bytes(instance) + 2000.0 * columns, memory_limit, "the MILP and HiGHS")
     with watch(time_limit, memory_limit) as stop:
         run = _Run(instance, objective, verbose, stop, gap, threads)
         run.incumbent.offer(*_warm_plan(instance, objective, warm_start), source="warm start")

@@ -9,6 +9,7 @@ import time
 import numpy as np
 from rich.progress import TextColumn
 
+from voiopt import lattice as lattice_mod
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.models import mdp as mdp_mod
@@ -17,7 +18,13 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate_indices
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, check_seed
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    check_limits,
+    check_seed,
+    lattice_bytes,
+    require_memory,
+)
 from voiopt.solvers.qlearning._kernels import rollout, train
 from voiopt.solvers.qlearning._qtable import QTable
 from voiopt.solvers.qlearning._rng import seed_state
@@ -62,6 +69,13 @@ def _check_options(episodes, seed, beta, gamma, q_init, penalty):
             bad(name, v, "must be a finite number")
 
 
+def mdp_bytes(instance: Instance) -> float:
+    """An upper bound on the bytes of the MDP's arrays (models/mdp.py) and the first Q-table."""
+    N, n, T = instance.n_sensors, lattice_mod.n_points(instance), instance.horizon
+    max_age = max(s.initial_aoi for s in instance.sensors) + T
+    return lattice_bytes(instance) + 8.0 * N * (max_age + 1) * (n + 1) + 3 * 8.0 * n * 5 * (N + 1) + 2**15 * 8 * (2 * N + 4)
+
+
 METHOD_OF_REWARD = {"voi": "qlearning", "aoi": "aoi-qlearning"}
 
 
@@ -76,6 +90,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     if not isinstance(slot_in_state, bool):
         raise OptionError(f"slot_in_state: must be true or false, got {slot_in_state!r}")
     method = METHOD_OF_REWARD[reward]
+    require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
     startup_s = warm_up()
     with watch(time_limit, memory_limit) as stop:
         model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
