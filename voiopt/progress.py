@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 
@@ -15,4 +16,5 @@ def progress_bar(enabled: bool, *extra_columns) -> Progress:
         TimeElapsedColumn(),
         disable=not enabled,
         transient=False,
+        console=Console(stderr=True),  # stdout stays for results (--json)
     )

@@ -120,6 +120,9 @@ def watch(time_limit: float | None = None, memory_limit: float | None = None):
         _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
         for s in _SIGNALS:
             signal.signal(s, _handler)
+    for outer in _active:  # a stop asked for before this watch opened still holds inside it
+        if outer.reason == INTERRUPTED:
+            stop.request(INTERRUPTED, outer.signal)
     _active.append(stop)
     try:
         yield stop
