@@ -53,6 +53,15 @@ def one_line(stderr: str) -> str:
     return lines[0]
 
 
+@pytest.fixture(scope="module", autouse=True)
+def compiled_kernels():
+    """Compile (or load) numba's kernels once here, so that the subprocesses below time their
+    work, not a cold compilation (minutes on a fresh clone's first run)."""
+    tiny = voiopt.generate(2, 3, width=1, height=1, seed=0)
+    for method in ("dp", "qlearning"):
+        voiopt.solve(tiny, method=method, episodes=10) if method == "qlearning" else voiopt.solve(tiny, method=method)
+
+
 @pytest.fixture(scope="module")
 def nets(tmp_path_factory):
     folder = tmp_path_factory.mktemp("nets")
@@ -82,6 +91,23 @@ def test_a_signal_stops_the_whole_sweep_keeps_what_finished_and_stores_no_interr
     stored = sorted(p.name for p in (out / "results").glob("*.json"))
     assert stored and all("greedy" in name for name in stored)  # no Q-learning run stored
     assert not (out / "gaps.csv").exists()  # the report is not made from a partial sweep
+
+
+def test_a_dead_worker_ends_the_sweep_with_one_line(tmp_path, nets):
+    out = tmp_path / "report"
+    proc = voiopt_cmd("gap-report", str(nets), "--methods", "qlearning", "--episodes", "1e9", "--seeds", "1",
+                      "--workers", "2", "-o", str(out), "--quiet")
+    wait_until_watching(proc)
+    end = time.monotonic() + 60
+    workers = []
+    while not workers and time.monotonic() < end:
+        children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
+        workers = [int(c) for c in children]
+        time.sleep(0.2)
+    time.sleep(1.0)
+    os.kill(workers[0], signal.SIGKILL)
+    _, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == 1 and "a worker process died" in one_line(stderr)
 
 
 def test_a_stored_interrupted_run_is_not_done(tmp_path):

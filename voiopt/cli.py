@@ -16,6 +16,7 @@ from voiopt import instance as instance_mod
 from voiopt import lattice
 from voiopt._files import check_output_dir, check_output_file
 from voiopt.errors import OptionError, VoioptError
+from voiopt.experiments.runner import WorkerDied
 from voiopt.generate import generate as generate_one
 from voiopt.generate import generate_set, write_set
 from voiopt.models.mdp import REWARD_UNITS
@@ -187,6 +188,7 @@ def cmd_plot(args) -> int:
     from voiopt.plots import check_figure_path, instance_for, plot_result
 
     check_figure_path(args.output)
+    check_output_file(args.output)
     result = voiopt.load_result(args.result)
     plot_result(result, instance_for(result, args.instance), args.output)
     out.print(f"wrote {args.output}", markup=False)
@@ -317,6 +319,9 @@ def main(argv: list[str] | None = None) -> int:
     except VoioptError as e:
         err.print(f"voiopt: error: {e}", markup=False)
         return 2
+    except WorkerDied as e:
+        err.print(f"voiopt: error: {e}", markup=False)
+        return 1
     except KeyboardInterrupt as e:  # a sweep stopped as a whole, or a second Ctrl-C
         code = getattr(e, "exit_code", 128 + (last_signal() or signal.SIGINT))
         err.print(f"voiopt: interrupted ({signal.Signals(code - 128).name}); finished results are kept", markup=False)

@@ -4,6 +4,7 @@ says why, returns its best plan and proven bound with that reason as the status.
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 import time
@@ -78,6 +79,9 @@ class Interrupted(KeyboardInterrupt):
     def exit_code(self) -> int:
         return 128 + int(self.signum)
 
+    def __reduce__(self):  # it may cross a process boundary
+        return (Interrupted, (int(self.signum),))
+
 
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _active: list[Stop] = []  # the Stops of the watches open in the main thread, outermost first
@@ -116,17 +120,31 @@ def watch(time_limit: float | None = None, memory_limit: float | None = None):
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
-    if not _active:
-        _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
-        for s in _SIGNALS:
-            signal.signal(s, _handler)
     for outer in _active:  # a stop asked for before this watch opened still holds inside it
         if outer.reason == INTERRUPTED:
             stop.request(INTERRUPTED, outer.signal)
-    _active.append(stop)
+    _active.append(stop)  # before the handler goes in: no signal can fall between the two
+    if len(_active) == 1:
+        _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
+        for s in _SIGNALS:
+            signal.signal(s, _handler)
     try:
         yield stop
     finally:
         _active.remove(stop)
         if not _active:
             _restore()
+
+
+def _forget_after_fork() -> None:
+    """A forked child (a pool worker) starts with no watch open and default handlers: the
+    parent's sweep and its stop state are not the child's."""
+    if _active:
+        for s, h in _previous.items():
+            signal.signal(s, h)
+    _active.clear()
+    _previous.clear()
+    _last_signal.clear()
+
+
+os.register_at_fork(after_in_child=_forget_after_fork)

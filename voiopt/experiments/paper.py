@@ -130,7 +130,7 @@ def make_figures(
     out = check_output_dir(out_dir, "--out")
     opts = dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
                 threads=1)
-    check_manifest(out, {"command": "figures", "networks": networks, "seed": seed, "seeds": seeds, **opts})
+    check_manifest(out, {"command": "figures", "networks": networks, "seed": seed, "seeds": seeds, **opts}, "--out")
 
     # the case study (Figs. 3 and 4): the plans drawn are those of the first seed
     inst = case_study_instance or case_study()

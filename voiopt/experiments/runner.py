@@ -14,6 +14,7 @@ import signal
 import time
 from collections.abc import Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -231,17 +232,22 @@ def run_tasks(
                         done, _ = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
                         for f in done:
                             finished(pending.pop(f), f.result())
+                    if stop.requested:  # running solves hand back their best plan (not stored) or are ended
+                        for f in pending:
+                            f.cancel()
+                        _signal_workers(ex, signal.SIGTERM)
+                        for f in wait(pending, timeout=STOP_GRACE_S).done:
+                            if not f.cancelled() and f.exception() is None:
+                                finished(pending[f], f.result())
+                except BrokenProcessPool:
+                    raise WorkerDied(
+                        "a worker process died (killed, or out of memory?); finished results are kept "
+                        "and a re-run resumes"
+                    ) from None
                 finally:
                     for f in pending:
                         f.cancel()
-                    if stop.requested:
-                        _forward(ex, stop.signal)
-                        for f in list(pending):  # running solves return their best plan quickly
-                            if not f.cancelled():
-                                try:
-                                    finished(pending[f], f.result(timeout=STOP_GRACE_S))
-                                except Exception:  # noqa: BLE001 - a worker killed or slow to stop
-                                    pass
+                    _signal_workers(ex, signal.SIGKILL)  # nothing left to wait for: no hanging at shutdown
     if stop.requested:
         raise Interrupted(stop.signal)
     return len(todo)
@@ -250,12 +256,18 @@ def run_tasks(
 STOP_GRACE_S = 5.0  # how long a stopped sweep waits for its running solves to hand back
 
 
-def _forward(ex, signum: int | None) -> None:
-    """Pass a stop request on to the pool's worker processes (a terminal's Ctrl-C reaches them
-    anyway; a SIGTERM sent to this process alone does not)."""
-    for proc in list(getattr(ex, "_processes", {}).values()):
+class WorkerDied(RuntimeError):
+    """A pool worker ended without handing back its run."""
+
+
+def _signal_workers(ex, signum: int) -> None:
+    """Signal the pool's worker processes: SIGTERM passes a stop request on (a terminal's Ctrl-C
+    reaches them anyway; a SIGTERM sent to this process alone does not); SIGKILL ends them
+    when the sweep ends, so that leaving the pool never waits on a long solve. (Dask workers
+    are not this process's children: their runs end on the cluster's side.)"""
+    for proc in list((getattr(ex, "_processes", None) or {}).values()):
         try:
-            os.kill(proc.pid, signal.SIGTERM)
+            os.kill(proc.pid, signum)
         except (OSError, AttributeError):
             pass
 
@@ -267,7 +279,7 @@ def _group_sizes(tasks: Sequence[Task]) -> dict[str, int]:
     return sizes
 
 
-def check_manifest(out_dir: Path, settings: dict[str, Any]) -> None:
+def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--output") -> None:
     """Resume only a run made with the same settings: ``run.json`` records them.
 
     Without this, re-running into a folder with other options (episodes, time limit, seed,
@@ -282,7 +294,7 @@ def check_manifest(out_dir: Path, settings: dict[str, Any]) -> None:
         if old != settings:
             diff = sorted(k for k in set(settings) | set(old or {}) if (old or {}).get(k) != settings.get(k))
             raise OptionError(
-                f"-o/--out: {out_dir} holds a run with other settings ({', '.join(diff)} differ); "
+                f"{what}: {out_dir} holds a run with other settings ({', '.join(diff)} differ); "
                 "use another folder, or delete it to start again"
             )
         return

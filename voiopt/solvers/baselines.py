@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import threading
 
 import networkx as nx
 import numpy as np
@@ -209,34 +210,55 @@ def _tour(instance: Instance, stop: Stop, seed: int) -> tuple[list[int], dict]:
             if stop.check():
                 break
         info["tour"] = "exact" if not stop.requested else "best order found before the stop"
-    elif len(servable) > HEURISTIC_TOUR_MAX_SENSORS or stop.check():
-        order, left, here = [], set(servable), [start]
-        while left and not stop.check():  # nearest neighbour, from the start
-            nxt = min(left, key=lambda i: (min(dist[x][y] for x in here for y in candidates[i]), i))
-            order.append(nxt)
-            left.discard(nxt)
-            here = candidates[nxt]
-        order += sorted(left)
-        best = _best_points_for_order(order, candidates, dist, start)
-        info["tour"] = "heuristic: nearest neighbour order + exact point choice"
     else:
-        # Heuristic: an order from networkx's TSP (simulated annealing, fixed seed) over the
-        # sensors with the fewest moves between their in-range sets, then the exact DP above
-        # picks the points for that order.
-        h = nx.complete_graph(["start", *servable])
-        def gap(a, b):
-            qa = [start] if a == "start" else candidates[a]
-            qb = [start] if b == "start" else candidates[b]
-            return min(dist[x][y] for x in qa for y in qb)
-        for a, b in h.edges:
-            h[a][b]["weight"] = gap(a, b)
-        cycle = nx.approximation.simulated_annealing_tsp(h, "greedy", weight="weight", seed=seed)
-        k = cycle.index("start")
-        order = [v for v in cycle[k + 1:] + cycle[1:k] if v != "start"]
+        order = None
+        if len(servable) <= HEURISTIC_TOUR_MAX_SENSORS:
+            order = _annealed_order(servable, candidates, dist, start, stop, seed)
+            info["tour"] = "heuristic: networkx simulated_annealing_tsp order + exact point choice"
+        if order is None:  # many sensors, or stopped: the nearest sensor next
+            order = _nearest_order(servable, candidates, dist, start, stop)
+            info["tour"] = "heuristic: nearest neighbour order + exact point choice"
         best = _best_points_for_order(order, candidates, dist, start)
-        info["tour"] = "heuristic: networkx simulated_annealing_tsp order + exact point choice"
     info["tour_length"] = int(best[0]) if math.isfinite(best[0]) else 0
     return best[1], info
+
+
+def _nearest_order(servable, candidates, dist, start, stop: Stop) -> list[int]:
+    """From the start, the sensor nearest to the last one's points next (index order once stopped)."""
+    order, left, here = [], set(servable), [start]
+    while left and not stop.check():
+        nxt = min(left, key=lambda i: (min(dist[x][y] for x in here for y in candidates[i]), i))
+        order.append(nxt)
+        left.discard(nxt)
+        here = candidates[nxt]
+    return order + sorted(left)
+
+
+def _annealed_order(servable, candidates, dist, start, stop: Stop, seed: int) -> list[int] | None:
+    """An order from networkx's TSP (simulated annealing, fixed seed) over the sensors with the
+    fewest moves between their in-range sets; None if the stop rule ends it first."""
+    h = nx.complete_graph(["start", *servable])
+
+    def gap(a, b):
+        qa = [start] if a == "start" else candidates[a]
+        qb = [start] if b == "start" else candidates[b]
+        return min(dist[x][y] for x in qa for y in qb)
+
+    for a, b in h.edges:
+        if stop.check():
+            return None
+        h[a][b]["weight"] = gap(a, b)
+    box: list = []
+    worker = threading.Thread(target=lambda: box.append(
+        nx.approximation.simulated_annealing_tsp(h, "greedy", weight="weight", seed=seed)), daemon=True)
+    worker.start()
+    while worker.is_alive():  # the annealing cannot be interrupted: it is left behind if need be
+        worker.join(0.05)
+        if stop.check():
+            return None
+    cycle = box[0]
+    k = cycle.index("start")
+    return [v for v in cycle[k + 1:] + cycle[1:k] if v != "start"]
 
 
 def shortest_path(instance: Instance, objective: str, *, progress: bool = False, seed: int = 0,

@@ -273,9 +273,13 @@ def _watched(stop: Stop, kernel, *args):
     box: list = []
     worker = threading.Thread(target=lambda: box.append(kernel(*args, halt)), daemon=True)
     worker.start()
-    while worker.is_alive():
-        worker.join(WATCH_S)
-        if stop.check() is not None:
+    try:
+        while worker.is_alive():
+            worker.join(WATCH_S)
+            if stop.check() is not None:
+                halt[0] = 1
+    finally:  # a second Ctrl-C raises here: the kernel must not run on behind it
+        if worker.is_alive():
             halt[0] = 1
     if not box:
         raise RuntimeError("dp: a kernel failed in its thread")
@@ -389,7 +393,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if plan is not None:
             offer(plan, "greedy")
         if pair_bound and tdma and out.stopped == LABEL_BUDGET:
-            tab.with_pair_bound()
+            room = PAIR_TABLE_BYTES if stop.memory_bytes is None else stop.memory_bytes - 2 * tab.nbytes
+            tab.with_pair_bound(min(PAIR_TABLE_BYTES, room))  # within the memory limit, with room for labels
         limits["tdma"] = tdma
         if beam > 0 and out.stopped == LABEL_BUDGET:
             b = search(tab, inc(), beam=beam, **limits)

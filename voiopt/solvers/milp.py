@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import math
 import sys
+import threading
 import time
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -80,7 +82,7 @@ def solve(
     require_memory(lattice_bytes(instance) + 2000.0 * columns, memory_limit, "the MILP and HiGHS")
     with watch(time_limit, memory_limit) as stop:
         run = _Run(instance, objective, verbose, stop, gap, threads)
-        run.incumbent.offer(*_warm_plan(instance, objective, warm_start), source="warm start")
+        run.incumbent.offer(*_warm_plan(instance, objective, warm_start, stop), source="warm start")
         run.details["warm_start"] = "given" if warm_start is not None else "greedy"
         run.details["warm_start_s"] = stop.elapsed()
         if objectives.get(objective).per_slot:
@@ -88,6 +90,8 @@ def solve(
         else:
             status, bound = run.solve_bisection()
     run.details["plan_source"] = run.incumbent.source
+    if status == TIME_LIMIT and not stop.requested:  # HiGHS's own clock ran out first
+        stop.request(TIME_LIMIT)
     if stop.requested:
         run.details["stopped"] = stop.describe()
     return Result.from_plan(
@@ -96,13 +100,16 @@ def solve(
     )
 
 
-def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None) -> tuple[np.ndarray, np.ndarray]:
-    """The given plan, else the greedy baseline's: the MILP always has a plan to return."""
+def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None, stop: Stop) -> tuple[np.ndarray, np.ndarray]:
+    """The given plan, else the greedy baseline's (within the time left; stopped, greedy hands
+    back a legal plan all the same): the MILP always has a plan to return."""
     if warm_start is not None:
         return check_plan(instance, warm_start)  # PlanError (exit 2) if it does not fit
     from voiopt.solvers.baselines import greedy
 
-    return check_plan(instance, greedy(instance, objective).plan)
+    left = stop.remaining()
+    return check_plan(instance, greedy(instance, objective, time_limit=None if left is None else max(left, 1e-3),
+                                       memory_limit=stop.memory_limit).plan)
 
 
 def _stopped_statuses() -> tuple:
@@ -182,8 +189,23 @@ class _Run:
         return h
 
     def run_highs(self, h) -> tuple[Any, Any]:
+        """Run HiGHS in a thread while this one watches the stop rule: HiGHS's interrupt
+        callbacks then see the request, and where HiGHS does not answer within HIGHS_GRACE_S
+        (its presolve polls no callback) it is left behind and the incumbent returned."""
+        import highspy
+
         t = time.perf_counter()
-        h.run()
+        worker = threading.Thread(target=h.run, daemon=True)
+        worker.start()
+        asked = None
+        while worker.is_alive():
+            worker.join(WATCH_S)
+            if asked is None and self.stop.check() is not None:
+                asked = time.perf_counter()
+            if asked is not None and worker.is_alive() and time.perf_counter() - asked > HIGHS_GRACE_S:
+                self.details["note"] = "HiGHS did not answer the stop request in time and was left behind"
+                self.details["solve_s"] += time.perf_counter() - t
+                return highspy.HighsModelStatus.kInterrupt, _NO_INFO
         self.details["solve_s"] += time.perf_counter() - t
         self.details["solves"] += 1
         info = h.getInfo()
@@ -326,6 +348,11 @@ class _Run:
             new = self._dual_bound_worth(model, info)
             bound = bound if new is None else min(bound, max(new, self.worth(self.incumbent.value)))
         return bound
+
+
+WATCH_S = 0.05  # how often the stop rule is checked while HiGHS runs
+HIGHS_GRACE_S = 1.0  # how long HiGHS may take to honour a stop request
+_NO_INFO = SimpleNamespace(mip_dual_bound=math.inf, mip_gap=math.inf, primal_solution_status=0, mip_node_count=0)
 
 
 def _new_highs(verbose: bool):

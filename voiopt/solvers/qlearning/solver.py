@@ -116,7 +116,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
                            states=table.n_states)
                 if not fits:
                     stop.request(MEMORY_LIMIT)
-                if stop.check():
+                if done < episodes and stop.check():  # a request after the last episode changes nothing
                     if progress:
                         bar.console.print(f"[yellow]{method}: {stop.describe()} after {done} of {episodes} "
                                           "episodes; returning the greedy plan so far")
@@ -129,11 +129,11 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         "table_states": table.n_states, "table_mib": round(table.nbytes / 2**20, 3),
         "startup_s": startup_s,
     }
-    if stop.reason:
+    if stop.reason and done < episodes:
         solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes ({table.n_states} states)"
     return Result.from_plan(
         instance, method, objective, Plan.from_indices(instance, idx, sched),
-        status=stop.reason or "feasible", runtime_s=stop.elapsed(), solver=solver,
+        status=(stop.reason if done < episodes else None) or "feasible", runtime_s=stop.elapsed(), solver=solver,
     )
 
 
