@@ -115,16 +115,19 @@ def result_path(folder: Path, instance_name: str, method: str, seed: int | None 
 
 def method_tasks(
     instance: Instance, instance_path: str | os.PathLike, methods: Sequence[str], objective: str, folder: Path,
-    seed: int = 0, seeds: int = 1, group: str = "", **options: Any,
+    seed: int = 0, seeds: int = 1, group: str = "", only: dict[str, Sequence[str]] | None = None, **options: Any,
 ) -> list[Task]:
     """The runs of one instance: one per deterministic method, and one per seed
-    seed .. seed + seeds - 1 for each randomised method (MODEL.md section 7)."""
+    seed .. seed + seeds - 1 for each randomised method (MODEL.md section 7). ``only`` keeps
+    an option for some methods alone (``{"time_limit": ["dp"]}``)."""
+    only = only or {}
     tasks = []
     data = instance.to_dict()
     for m in methods:
         run_seeds = [seed + k for k in range(seeds)] if m in RANDOMISED else [None]
         for s in run_seeds:
-            opts = method_options(m, **options, seed=seed if s is None else s)
+            mine = {k: v for k, v in options.items() if k not in only or m in only[k]}
+            opts = method_options(m, **mine, seed=seed if s is None else s)
             tasks.append(Task(str(instance_path), instance.name, m, objective, opts,
                               str(result_path(folder, instance.name, m, s)), s, data, group))
     return tasks
