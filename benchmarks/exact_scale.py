@@ -26,7 +26,7 @@ import sys
 import time
 
 import voiopt
-from voiopt.simulate import OBJECTIVES
+from voiopt.objectives import OBJECTIVES
 from voiopt.solvers import dp
 
 SETTINGS = {

@@ -16,7 +16,7 @@ import sys
 import time
 
 import voiopt
-from voiopt.simulate import OBJECTIVES
+from voiopt.objectives import OBJECTIVES
 
 
 def main(argv: list[str] | None = None) -> int:

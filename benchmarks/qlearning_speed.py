@@ -22,11 +22,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
-from reference_qlearning import reference_qlearning  # noqa: E402
 
 import voiopt  # noqa: E402
 from voiopt.models import mdp  # noqa: E402
 from voiopt.solvers import qlearning as ql  # noqa: E402
+from voiopt.solvers.qlearning.reference import reference_qlearning  # noqa: E402
 
 
 def main() -> int:

@@ -1,4 +1,4 @@
-"""Shared fixtures: tiny random instances for cross-checks against tests/bruteforce.py."""
+"""Shared fixtures: tiny random instances for cross-checks against the oracles in tests/oracles/."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))  # make tests/bruteforce.py importable
+sys.path.insert(0, str(Path(__file__).parent))  # make tests/oracles importable
 
 import voiopt  # noqa: E402
 

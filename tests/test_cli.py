@@ -11,7 +11,9 @@ from conftest import ROOT
 
 import voiopt
 from voiopt.cli import main
-from voiopt.generate import CASE_STUDY_PLAN
+from voiopt.generate import case_study_plan
+
+CASE_STUDY_PLAN = case_study_plan().to_dict()
 
 CASE = str(ROOT / "instances" / "case-study.json")
 PLAN = str(ROOT / "instances" / "case-study.plan.json")
@@ -107,7 +109,7 @@ def test_generate_set_is_deterministic(capsys, tmp_path):
         (["generate", "--count", "3"], "--count: more than one network needs --out DIR"),
         (["generate", "--rho", "0.5", "2"], "rho: must be a range"),
         (["solve", CASE, "--method", "nope"], "method: unknown method 'nope'"),
-        (["solve", CASE, "--time-limit", "-1"], "--time-limit: must be > 0 seconds"),
+        (["solve", CASE, "--time-limit", "-1"], "--time-limit: must be a number of seconds > 0"),
     ],
 )
 def test_bad_options_exit_2(capsys, argv, message):

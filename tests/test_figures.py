@@ -6,7 +6,8 @@ import csv
 
 import voiopt
 from voiopt.cli import main
-from voiopt.figures import SCHEMES, SWEEPS
+from voiopt.experiments.paper import SWEEPS
+from voiopt.plots import SCHEMES
 
 
 def test_plot_a_result(tmp_path, capsys, case_study):
@@ -21,9 +22,11 @@ def test_plot_a_result(tmp_path, capsys, case_study):
     assert "the result is for 'case-study'" in capsys.readouterr().err
 
 
-def test_figures_smoke(tmp_path):
+def test_figures_smoke(tmp_path, capsys):
     out = tmp_path / "figs"
-    assert main(["figures", "--out", str(out), "--networks", "2", "--episodes", "2000", "--time-limit", "1", "--quiet"]) == 0
+    assert main(["figures", "--out", str(out), "--networks", "2", "--episodes", "2000", "--time-limit", "1"]) == 0
+    err = capsys.readouterr().err  # not a terminal: a line per finished setting
+    assert "finished: case study" in err and "finished: fig7_nodes number of nodes N = 8 (" in err
     for name in ["fig3_case_study", "fig4_voi_over_time", *(s.key for s in SWEEPS)]:
         assert (out / f"{name}.png").stat().st_size > 5000, name
         assert (out / f"{name}.csv").is_file(), name

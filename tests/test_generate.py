@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import voiopt
 from voiopt import lattice
 from voiopt.errors import OptionError
-from voiopt.generate import generate_set, write_set
+from voiopt.generate import case_study_plan, generate_set, write_set
 
 
 def test_same_seed_same_instances():
@@ -60,3 +62,12 @@ def test_written_set_loads_back(tmp_path):
     insts = generate_set(3, seed=11, n_sensors=2, horizon=5)
     paths = write_set(insts, tmp_path)
     assert [voiopt.load(p) for p in paths] == insts
+
+
+def test_the_shipped_case_study_is_one_file_in_two_places():
+    """voiopt/data (package data, for voiopt.case_study()) and instances/ (for the CLI tour)."""
+    root = Path(__file__).resolve().parent.parent
+    for name in ("case-study.json", "case-study.plan.json"):
+        assert (root / "voiopt" / "data" / name).read_bytes() == (root / "instances" / name).read_bytes()
+    assert voiopt.case_study() == voiopt.load(root / "instances" / "case-study.json")
+    assert voiopt.evaluate(voiopt.case_study(), case_study_plan())["mean-min-voi"] > 0

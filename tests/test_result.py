@@ -8,8 +8,11 @@ import os
 import pytest
 
 import voiopt
-from voiopt.generate import CASE_STUDY_PLAN
-from voiopt.result import Plan, Result, load_result
+from voiopt.generate import case_study_plan
+from voiopt.plan import Plan
+from voiopt.result import Result, load_result
+
+CASE_STUDY_PLAN = case_study_plan().to_dict()
 
 
 @pytest.fixture

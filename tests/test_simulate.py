@@ -11,9 +11,11 @@ from hypothesis import strategies as st
 
 import voiopt
 from voiopt.errors import PlanError
-from voiopt.generate import CASE_STUDY_PLAN
-from voiopt.result import Plan
+from voiopt.generate import case_study_plan
+from voiopt.plan import Plan
 from voiopt.simulate import simulate
+
+CASE_STUDY_PLAN = case_study_plan().to_dict()
 
 B = 2e6
 

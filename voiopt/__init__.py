@@ -8,8 +8,10 @@
 from voiopt.errors import InstanceError, OptionError, PlanError, VoioptError
 from voiopt.generate import case_study, generate, generate_set
 from voiopt.instance import Channel, Instance, Sensor, load, save
-from voiopt.result import Plan, Result, load_plan, load_result
-from voiopt.simulate import OBJECTIVES, Trajectory, simulate
+from voiopt.objectives import OBJECTIVES
+from voiopt.plan import Plan, load_plan
+from voiopt.result import Result, load_result
+from voiopt.simulate import Trajectory, simulate
 from voiopt.solvers import METHODS, solve
 
 __version__ = "0.1.0"

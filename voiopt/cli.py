@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 from pathlib import Path
 
@@ -12,11 +13,16 @@ from rich.table import Table
 
 import voiopt
 from voiopt import instance as instance_mod
+from voiopt import lattice
+from voiopt._files import check_output_dir, check_output_file
 from voiopt.errors import OptionError, VoioptError
+from voiopt.experiments.runner import WorkerDied
 from voiopt.generate import generate as generate_one
 from voiopt.generate import generate_set, write_set
 from voiopt.models.mdp import REWARD_UNITS
-from voiopt.simulate import OBJECTIVES
+from voiopt.objectives import DEFAULT, OBJECTIVES
+from voiopt.solvers.base import DEFAULT_MEMORY_GB
+from voiopt.stop import last_signal
 
 out = Console(highlight=False, soft_wrap=True)
 err = Console(stderr=True, highlight=False, soft_wrap=True)
@@ -63,10 +69,7 @@ def cmd_validate(args) -> int:
                 err.print(line, markup=False)
             bad += 1
             continue
-        from voiopt import lattice
-
-        lat = lattice.build(inst)
-        never = [i for i in range(inst.n_sensors) if not lat.in_range[i].any()]
+        never = lattice.unservable_sensors(inst)
         note = ""
         if never:
             note = f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
@@ -96,6 +99,7 @@ def cmd_generate(args) -> int:
         inst = generate_one(seed=args.seed, name=args.name, **kwargs)
         print(json.dumps(inst.to_dict(), indent=2))
         return 0
+    check_output_dir(args.out, "--out")
     insts = generate_set(args.count, seed=args.seed, name=args.name, **kwargs)
     paths = write_set(insts, args.out)
     out.print(f"wrote {len(paths)} instance(s) to {args.out}", markup=False)
@@ -118,10 +122,8 @@ def _solve_options(args) -> dict:
 
 
 def cmd_solve(args) -> int:
-    if args.time_limit is not None and not args.time_limit > 0:
-        raise OptionError(f"--time-limit: must be > 0 seconds, got {args.time_limit:g}")
-    if args.gap is not None and not args.gap >= 0:
-        raise OptionError(f"--gap: must be >= 0, got {args.gap:g}")
+    if args.output:
+        check_output_file(args.output)  # before the work, not after it
     inst = instance_mod.load(args.instance)
     result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args))
     if args.output:
@@ -133,12 +135,16 @@ def cmd_solve(args) -> int:
         out.print(_metrics_table({args.method: result.metrics}) if result.metrics else "no plan")
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
+    if result.status == "interrupted":  # the best plan is kept (and written), but the run did not finish
+        err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is kept", markup=False)
+        return 128 + (last_signal() or signal.SIGINT)
     return 0 if result.status != "error" else 1
 
 
 def cmd_export(args) -> int:
     from voiopt.models.milp import export
 
+    check_output_file(args.model, "MODEL")
     inst = instance_mod.load(args.instance)
     export(inst, args.objective, args.model)
     out.print(f"wrote {args.model}", markup=False)
@@ -146,27 +152,31 @@ def cmd_export(args) -> int:
 
 
 def cmd_gap_report(args) -> int:
-    from voiopt.report import gap_report, summarise, summary_markdown
+    from voiopt.experiments.gaps import gap_report
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    rows = gap_report(
+    notes: list[str] = []
+    gap_report(
         args.instances, methods, args.objective, args.output, time_limit=args.time_limit,
-        episodes=args.episodes, seed=args.seed, seeds=args.seeds, reward_units=args.reward_units,
-        workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
+        memory_limit=args.memory_limit, episodes=args.episodes, seed=args.seed, seeds=args.seeds,
+        reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler,
+        progress=not args.quiet, notes=notes,
     )
+    for note in notes:
+        err.print(note, markup=False)
     if not args.quiet:
-        n = len({r["instance"] for r in rows})
-        md = summary_markdown(summarise(rows, methods), args.objective, n, args.reward_units)
+        md = (Path(args.output) / "summary.md").read_text(encoding="utf-8")
         out.print(md.split("![")[0].rstrip(), markup=False)
         out.print(f"written: {args.output}/gaps.csv, summary.md, gaps.png, results/", markup=False)
     return 0
 
 
 def cmd_figures(args) -> int:
-    from voiopt.figures import make_figures
+    from voiopt.experiments.paper import make_figures
 
     files = make_figures(
         args.out, networks=args.networks, episodes=args.episodes, time_limit=args.time_limit,
+        memory_limit=args.memory_limit,
         seed=args.seed, seeds=args.seeds, reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
@@ -175,16 +185,18 @@ def cmd_figures(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from voiopt.figures import load_instance_for, plot_result
+    from voiopt.plots import check_figure_path, instance_for, plot_result
 
+    check_figure_path(args.output)
+    check_output_file(args.output)
     result = voiopt.load_result(args.result)
-    plot_result(result, load_instance_for(result, args.instance), args.output)
+    plot_result(result, instance_for(result, args.instance), args.output)
     out.print(f"wrote {args.output}", markup=False)
     return 0
 
 
 def cmd_demo(args) -> int:
-    from voiopt.demo import run_demo
+    from voiopt.experiments.demo import run_demo
 
     return run_demo(args.instance, out)
 
@@ -192,7 +204,15 @@ def cmd_demo(args) -> int:
 # ---------------------------------------------------------------------------------- parser
 
 
+def _command(sub, name: str, help: str, func) -> argparse.ArgumentParser:
+    s = sub.add_parser(name, help=help)
+    s.set_defaults(func=func)
+    return s
+
+
 def _add_executor_options(s: argparse.ArgumentParser) -> None:
+    s.add_argument("--memory-limit", type=float, default=DEFAULT_MEMORY_GB, metavar="GB",
+                   help=f"per run (default {DEFAULT_MEMORY_GB:g})")
     s.add_argument("--workers", type=int, default=1, metavar="K", help="parallel processes (default 1)")
     s.add_argument("--dask-scheduler", default=None, metavar="ADDRESS",
                    help="tcp://HOST:PORT of a Dask cluster, or 'local' for a LocalCluster (needs voiopt[dask])")
@@ -215,17 +235,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"voiopt {voiopt.__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    s = sub.add_parser("validate", help="check instance files; print ok or the errors")
+    s = _command(sub, "validate", "check instance files; print ok or the errors", cmd_validate)
     s.add_argument("instances", nargs="+", metavar="INSTANCE")
-    s.set_defaults(func=cmd_validate)
 
-    s = sub.add_parser("evaluate", help="simulate a plan and print its four metrics")
+    s = _command(sub, "evaluate", "simulate a plan and print its four metrics", cmd_evaluate)
     s.add_argument("instance", metavar="INSTANCE")
     s.add_argument("plan", metavar="PLAN", help="a plan object or a whole result JSON")
     s.add_argument("--json", action="store_true", help="print a JSON object with key 'metrics'")
-    s.set_defaults(func=cmd_evaluate)
 
-    s = sub.add_parser("generate", help="random networks with the paper's distributions")
+    s = _command(sub, "generate", "random networks with the paper's distributions", cmd_generate)
     s.add_argument("--sensors", type=int, default=4, help="N (default 4)")
     s.add_argument("--horizon", type=int, default=30, help="T (default 30)")
     s.add_argument("--width", type=float, default=5.0)
@@ -238,19 +256,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--count", type=int, default=1)
     s.add_argument("--name", default=None, help="name prefix of the instances")
     s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
-    s.set_defaults(func=cmd_generate)
 
     s = sub.add_parser("solve", help="solve an instance and write the result JSON")
     s.add_argument("instance", metavar="INSTANCE")
     s.add_argument("--method", default="milp", help=f"one of {', '.join(voiopt.METHODS)} (default milp)")
-    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES), help="(default mean-min-voi)")
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="seconds (default: none)")
     s.add_argument("--gap", type=float, default=None, metavar="G", help="milp: relative MIP gap (default 0: exact)")
     s.add_argument("--threads", type=_count, default=None, metavar="K", help="milp: HiGHS threads (default: HiGHS's)")
     _add_qlearning_options(s, seeds=False)
     s.add_argument("--seed", type=_count, default=None, metavar="S",
                    help="seed of a randomised method (default 0)")
-    s.add_argument("--memory-limit", type=float, default=None, metavar="GB", help="dp: memory limit (default: none)")
+    s.add_argument("--memory-limit", type=float, default=None, metavar="GB",
+                   help=f"stop with the best plan when the method's memory passes this (default {DEFAULT_MEMORY_GB:g})")
     s.add_argument("--warm-start", default=None, metavar="PLAN", help="milp, dp: a plan or result JSON to start from")
     s.add_argument("-o", "--output", default=None, metavar="RESULT", help="write the result JSON here")
     s.add_argument("--json", action="store_true", help="print the result JSON to stdout")
@@ -258,44 +276,38 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--verbose", action="store_true", help="milp: show HiGHS's own log on stderr")
     s.set_defaults(func=cmd_solve)
 
-    s = sub.add_parser("export", help="write the MILP of an instance as MPS or LP (by extension)")
+    s = _command(sub, "export", "write the MILP of an instance as MPS or LP (by extension)", cmd_export)
     s.add_argument("instance", metavar="INSTANCE")
     s.add_argument("model", metavar="MODEL", help="output file, .mps or .lp")
-    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
-    s.set_defaults(func=cmd_export)
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES))
 
-    s = sub.add_parser("gap-report", help="proven optimality gaps of several methods over many networks")
+    s = _command(sub, "gap-report", "proven optimality gaps of several methods over many networks", cmd_gap_report)
     s.add_argument("instances", nargs="+", metavar="INSTANCES", help="instance files or folders of them")
     s.add_argument("--methods", default="dp,qlearning,aoi-qlearning,shortest-path", help="comma-separated")
-    s.add_argument("--objective", default="mean-min-voi", choices=list(OBJECTIVES))
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES))
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="per run (default: none)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
     s.add_argument("-o", "--output", required=True, metavar="DIR")
     s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_gap_report)
 
-    s = sub.add_parser("figures", help="reproduce the paper's figures with the proven optimum")
+    s = _command(sub, "figures", "reproduce the paper's figures with the proven optimum", cmd_figures)
     s.add_argument("--out", required=True, metavar="DIR")
     s.add_argument("--networks", type=int, default=40, help="networks per setting (default 40)")
     s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="dp limit per network (default 60)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
     s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_figures)
 
-    s = sub.add_parser("plot", help="draw the trajectory of a result")
+    s = _command(sub, "plot", "draw the trajectory of a result", cmd_plot)
     s.add_argument("result", metavar="RESULT")
     s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: instances/NAME.json")
     s.add_argument("-o", "--output", required=True, metavar="PNG")
-    s.set_defaults(func=cmd_plot)
 
-    s = sub.add_parser("methods", help="list the solution methods")
-    s.set_defaults(func=lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])
+    s = _command(sub, "methods", "list the solution methods", lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])
 
-    s = sub.add_parser("demo", help="run the main job on the shipped case study")
+    s = _command(sub, "demo", "run the main job on the shipped case study", cmd_demo)
     s.add_argument("instance", nargs="?", default=None, metavar="INSTANCE")
-    s.set_defaults(func=cmd_demo)
     return p
 
 
@@ -307,9 +319,13 @@ def main(argv: list[str] | None = None) -> int:
     except VoioptError as e:
         err.print(f"voiopt: error: {e}", markup=False)
         return 2
-    except KeyboardInterrupt:
-        err.print("voiopt: interrupted", markup=False)
-        return 130
+    except WorkerDied as e:
+        err.print(f"voiopt: error: {e}", markup=False)
+        return 1
+    except KeyboardInterrupt as e:  # a sweep stopped as a whole, or a second Ctrl-C
+        code = getattr(e, "exit_code", 128 + (last_signal() or signal.SIGINT))
+        err.print(f"voiopt: interrupted ({signal.Signals(code - 128).name}); finished results are kept", markup=False)
+        return code
 
 
 

@@ -17,6 +17,10 @@ class OptionError(VoioptError):
     """An unknown method or objective, or a bad solver option."""
 
 
+class MemoryLimitError(OptionError):
+    """The work would pass the memory limit before it has any plan to return."""
+
+
 class MissingExtraError(VoioptError):
     """An optional dependency is not installed; the message names the pip command."""
 

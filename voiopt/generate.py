@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import os
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
+from voiopt import _files
 from voiopt import instance as instance_mod
-from voiopt.errors import OptionError
+from voiopt.errors import OptionError, PlanError
 from voiopt.instance import Channel, Instance, Sensor
+from voiopt.plan import Plan
 
 
 def generate(
@@ -69,7 +72,7 @@ def write_set(instances: list[Instance], out_dir: str | os.PathLike) -> list[Pat
     out = Path(out_dir)
     paths = []
     for inst in instances:
-        p = out / f"{inst.name}.json"
+        p = out / f"{_files.safe_name(inst.name)}.json"
         instance_mod.save(inst, p)
         paths.append(p)
     return paths
@@ -92,27 +95,16 @@ def _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi) -
 
 
 # The paper's Fig. 3/4 case study: N = 3, rho = [0.7, 0.6, 0.5], A(0) = [2, 4, 4], P = 1 W,
-# T = 10. The paper does not give positions; these are illustrative choices of ours.
-CASE_STUDY = {
-    "name": "case-study",
-    "area": {"width": 5, "height": 5},
-    "step": 1.0,
-    "horizon": 10,
-    "start": [0, 2],
-    "channel": {"g0_db": -50.0, "bandwidth_hz": 2e6, "noise_dbm_per_hz": -110.0, "d_th": 1.0},
-    "sensors": [
-        {"position": [1.4, 3.6], "rho": 0.7, "power_w": 1.0, "initial_aoi": 2, "initial_distance": 1.0},
-        {"position": [3.7, 4.4], "rho": 0.6, "power_w": 1.0, "initial_aoi": 4, "initial_distance": 1.0},
-        {"position": [4.3, 1.3], "rho": 0.5, "power_w": 1.0, "initial_aoi": 4, "initial_distance": 1.0},
-    ],
-}
-
-# An illustrative hand-made plan for the case study (legal; optimal for mean-min-voi only, as dp shows).
-CASE_STUDY_PLAN = {
-    "positions": [[0, 2], [1, 2], [1, 3], [2, 3], [2, 4], [3, 4], [4, 4], [4, 3], [4, 2], [4, 1]],
-    "schedule": [None, None, 0, 0, 0, 1, 1, None, 2, 2],
-}
+# T = 10. The paper does not give positions; ours (voiopt/data/case-study.json) are
+# illustrative, as is the hand-made legal plan beside it (optimal for mean-min-voi only).
+DATA = resources.files("voiopt") / "data"
 
 
 def case_study() -> Instance:
-    return instance_mod.from_dict(CASE_STUDY)
+    """The shipped case study (the same file as instances/case-study.json)."""
+    return instance_mod.from_dict(_files.loads_json(DATA.joinpath("case-study.json").read_text("utf-8")), "case-study")
+
+
+def case_study_plan() -> Plan:
+    """The hand-made example plan of the case study."""
+    return Plan.from_dict(_files.loads_json(DATA.joinpath("case-study.plan.json").read_text("utf-8"), PlanError))

@@ -9,12 +9,11 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from voiopt._files import loads_json, read_json, write_json_atomic
 from voiopt.errors import InstanceError
 
 LATTICE_TOL = 1e-9  # absolute tolerance for "is a lattice point" and "within d_th"
@@ -100,6 +99,7 @@ class _Checker:
         self.errors: list[str] = []
 
     def fail(self, path: str, message: str) -> None:
+        """Record a violated rule (returns None, the value of a field that failed)."""
         self.errors.append(f"{path}: {message}")
 
     def obj(self, value: Any, path: str, allowed: set[str], required: set[str]) -> dict | None:
@@ -114,52 +114,37 @@ class _Checker:
                 self.fail(_join(path, key), "is required")
         return value
 
-    def number(
-        self,
-        d: dict,
-        key: str,
-        path: str,
-        default: float | None = None,
-        *,
-        positive: bool = False,
-        nonnegative: bool = False,
-        open01: bool = False,
-    ) -> float | None:
-        p = _join(path, key)
+    def number(self, d: dict, key: str, path: str, default: float | None = None, *, positive: bool = False,
+               nonnegative: bool = False, open01: bool = False) -> float | None:
         if key not in d:
             return default
-        v = d[key]
+        p, v = _join(path, key), d[key]
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            self.fail(p, f"must be a number, got {_show(v)}")
-            return None
+            return self.fail(p, f"must be a number, got {_show(v)}")
+        if isinstance(v, int) and abs(v) > 2**1000:  # float() would overflow
+            return self.fail(p, f"must be finite, got {_show(v)}")
         v = float(v)
-        if not math.isfinite(v):
-            self.fail(p, f"must be finite, got {_show(v)}")
-            return None
-        if positive and not v > 0:
-            self.fail(p, f"must be > 0, got {_show(v)}")
-            return None
-        if nonnegative and not v >= 0:
-            self.fail(p, f"must be >= 0, got {_show(v)}")
-            return None
-        if open01 and not 0 < v < 1:
-            self.fail(p, f"must be in (0, 1), got {_show(v)}")
-            return None
+        rules = (
+            (math.isfinite(v), "must be finite"),
+            (not positive or v > 0, "must be > 0"),
+            (not nonnegative or v >= 0, "must be >= 0"),
+            (not open01 or 0 < v < 1, "must be in (0, 1)"),
+        )
+        for ok, rule in rules:
+            if not ok:
+                return self.fail(p, f"{rule}, got {_show(v)}")
         return v
 
     def integer(self, d: dict, key: str, path: str, default: int | None, minimum: int) -> int | None:
-        p = _join(path, key)
+        v = d.get(key, default)
         if key not in d:
-            return default
-        v = d[key]
+            return v
         if isinstance(v, float) and math.isfinite(v) and v.is_integer():
             v = int(v)
         if isinstance(v, bool) or not isinstance(v, int):
-            self.fail(p, f"must be an integer, got {_show(v)}")
-            return None
+            return self.fail(_join(path, key), f"must be an integer, got {_show(v)}")
         if v < minimum:
-            self.fail(p, f"must be an integer >= {minimum}, got {_show(v)}")
-            return None
+            return self.fail(_join(path, key), f"must be an integer >= {minimum}, got {_show(v)}")
         return v
 
     def point(self, d: dict, key: str, path: str) -> tuple[float, float] | None:
@@ -188,7 +173,12 @@ def _show(v: Any) -> str:
         if math.isinf(v):
             return "Infinity" if v > 0 else "-Infinity"
         return repr(v)
-    text = json.dumps(v) if isinstance(v, (str, list, dict, bool, type(None))) else repr(v)
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10**60:
+        return f"an integer of {len(str(abs(v) // 10**60)) + 60} digits" if v.bit_length() < 14000 else "a huge integer"
+    try:
+        text = json.dumps(v) if isinstance(v, (str, list, dict, bool, type(None))) else repr(v)
+    except (ValueError, RecursionError):
+        text = f"a {type(v).__name__}"
     return text if len(text) <= 60 else text[:57] + "..."
 
 
@@ -273,69 +263,13 @@ def _raise(ck: _Checker, source: str) -> None:
     raise err
 
 
-def _reject_constant(name: str) -> float:
-    raise ValueError(f"{name} is not allowed")
-
-
-def read_json(path: str | os.PathLike, error: type[Exception] = InstanceError) -> Any:
-    """Read a JSON file; a syntax error names the file, line and column. NaN/Infinity are rejected."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise error(f"{p}: no such file") from None
-    except IsADirectoryError:
-        raise error(f"{p}: is a directory, not a JSON file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise error(f"{p}: cannot read: {e}") from None
-    try:
-        return json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as e:
-        raise error(f"{p}: invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}") from None
-    except ValueError as e:  # NaN / Infinity
-        raise error(f"{p}: invalid JSON: {e}") from None
-
-
 def load(path: str | os.PathLike) -> Instance:
     """Load and validate an instance JSON file."""
     return from_dict(read_json(path), source=str(path))
 
 
 def loads(text: str) -> Instance:
-    try:
-        d = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as e:
-        raise InstanceError(f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}") from None
-    except ValueError as e:
-        raise InstanceError(f"invalid JSON: {e}") from None
-    return from_dict(d)
-
-
-@contextmanager
-def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str | None = None):
-    """Write through a temporary file beside ``path``, renamed over it only when the block
-    finishes: a reader sees the old file or the new one, never half of one."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-    try:
-        if binary:
-            f = os.fdopen(fd, "wb")
-        else:
-            f = os.fdopen(fd, "w", encoding="utf-8", newline=newline)
-        with f:
-            yield f
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:
-    """Write JSON atomically (see ``atomic_write``)."""
-    with atomic_write(path) as f:
-        json.dump(obj, f, indent=2, allow_nan=False)
-        f.write("\n")
+    return from_dict(loads_json(text))
 
 
 def save(instance: Instance, path: str | os.PathLike) -> None:

@@ -13,7 +13,6 @@ import numpy as np
 
 from voiopt.instance import LATTICE_TOL, Instance
 
-MOVE_NAMES = ("stay", "N", "S", "E", "W")
 MOVES = np.array([(0, 0), (0, 1), (0, -1), (1, 0), (-1, 0)], dtype=np.int64)
 
 
@@ -51,11 +50,27 @@ class Lattice:
         return self.steps_from(self.start) <= t
 
 
+def shape(instance: Instance) -> tuple[int, int]:
+    """(nx, ny): the lattice points per row and per column (MODEL.md section 2)."""
+    step = instance.step
+    return (math.floor(instance.width / step + LATTICE_TOL) + 1, math.floor(instance.height / step + LATTICE_TOL) + 1)
+
+
+def n_points(instance: Instance) -> int:
+    nx, ny = shape(instance)
+    return nx * ny
+
+
+def unservable_sensors(instance: Instance) -> list[int]:
+    """The sensors with no lattice point within d_th: no plan can ever schedule them."""
+    lat = build(instance)
+    return [i for i in range(instance.n_sensors) if not lat.in_range[i].any()]
+
+
 @lru_cache(maxsize=64)
 def build(instance: Instance) -> Lattice:
     step = instance.step
-    nx = math.floor(instance.width / step + LATTICE_TOL) + 1
-    ny = math.floor(instance.height / step + LATTICE_TOL) + 1
+    nx, ny = shape(instance)
     k, l = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     coords = np.stack([k.ravel(), l.ravel()], axis=1).astype(np.int64)
     points = coords * step

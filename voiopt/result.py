@@ -1,4 +1,4 @@
-"""Plan and Result: the result JSON of MODEL.md section 6, written atomically, read losslessly.
+"""Result: the result JSON of MODEL.md section 6, written atomically, read losslessly.
 
 ``Result.from_plan`` is the only way solvers make a result: it simulates the plan, takes the
 value from the simulator, checks the bound against it and claims ``optimal`` only when they
@@ -14,78 +14,17 @@ from typing import Any
 
 import numpy as np
 
-from voiopt.errors import PlanError, VoioptError
-from voiopt.instance import Instance, read_json, write_json_atomic
-from voiopt.simulate import check_objective, sense, simulate
+from voiopt import objectives
+from voiopt._files import read_json, write_json_atomic
+from voiopt.errors import VoioptError
+from voiopt.instance import Instance
+from voiopt.objectives import TINY, check_objective
+from voiopt.plan import Plan
+from voiopt.simulate import simulate
 
-STATUSES = ("optimal", "feasible", "time_limit", "infeasible", "error")
+STATUSES = ("optimal", "feasible", "time_limit", "memory_limit", "interrupted", "infeasible", "error")
+STOPPED = ("time_limit", "memory_limit", "interrupted")  # stopped early, with a plan
 OPTIMAL_RTOL = 1e-6
-TINY = 1e-300
-
-
-def _num(v: float) -> float | int:
-    """Integral floats as ints, so lattice points read [1, 0] rather than [1.0, 0.0]."""
-    return int(v) if float(v).is_integer() and abs(v) < 2**53 else float(v)
-
-
-@dataclass(frozen=True)
-class Plan:
-    positions: tuple[tuple[float, float], ...]
-    schedule: tuple[int | None, ...]
-
-    @classmethod
-    def from_dict(cls, d: Any) -> Plan:
-        """A plan object, or a whole result JSON whose ``plan`` is used."""
-        if isinstance(d, dict) and "plan" in d and "positions" not in d:
-            d = d["plan"]
-            where = "plan."
-        else:
-            where = ""
-        if not isinstance(d, dict):
-            raise PlanError(f"plan: must be an object with positions and schedule, got {type(d).__name__}")
-        unknown = set(d) - {"positions", "schedule"}
-        if unknown:
-            raise PlanError(f"{where}{sorted(unknown)[0]}: unknown field (allowed: positions, schedule)")
-        for key in ("positions", "schedule"):
-            if not isinstance(d.get(key), list):
-                raise PlanError(f"{where}{key}: must be a list, got {d.get(key)!r}")
-        positions = []
-        for t, p in enumerate(d["positions"]):
-            ok = isinstance(p, list) and len(p) == 2 and all(
-                isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in p
-            )
-            if not ok:
-                raise PlanError(f"{where}positions[{t}]: must be a pair [x, y] of finite numbers, got {p!r}")
-            positions.append((float(p[0]), float(p[1])))
-        schedule = []
-        for t, u in enumerate(d["schedule"]):
-            if isinstance(u, float) and u.is_integer():
-                u = int(u)
-            if u is not None and (isinstance(u, bool) or not isinstance(u, int)):
-                raise PlanError(f"{where}schedule[{t}]: must be a sensor index or null, got {u!r}")
-            schedule.append(u)
-        return cls(tuple(positions), tuple(schedule))
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "positions": [[_num(x), _num(y)] for x, y in self.positions],
-            "schedule": list(self.schedule),
-        }
-
-    @classmethod
-    def from_indices(cls, instance: Instance, idx, sched) -> Plan:
-        """A plan from lattice point indices and a schedule with -1 for none."""
-        from voiopt import lattice
-
-        pts = lattice.build(instance).points
-        return cls(
-            tuple((float(pts[p, 0]), float(pts[p, 1])) for p in idx),
-            tuple(None if u < 0 else int(u) for u in sched),
-        )
-
-
-def load_plan(path: str | os.PathLike) -> Plan:
-    return Plan.from_dict(read_json(path, error=PlanError))
 
 
 @dataclass
@@ -121,14 +60,14 @@ class Result:
             raise ValueError(f"status: unknown status {status!r}")
         solver = dict(solver or {})
         if plan is None:
-            if status in ("optimal", "feasible", "time_limit"):
+            if status in ("optimal", "feasible", *STOPPED):
                 raise ValueError(f"status {status!r} needs a plan")
             return cls(instance.name, method, objective, status, None, _clean(bound), None, runtime_s, None, None, solver)
         metrics = simulate(instance, plan).metrics
         value = metrics[objective]
         if bound is not None:
             bound = float(bound)
-            maximise = sense(objective) == "max"
+            maximise = objectives.get(objective).maximise
             violation = (value - bound) if maximise else (bound - value)
             if violation > 0:
                 # A bound can never be worse than a feasible plan; within tolerance it is solver
@@ -138,7 +77,7 @@ class Result:
                         f"{method}: bound {bound!r} is worse than the simulated value {value!r} of its own plan"
                     )
                 bound = value
-        gap = None if bound is None else abs(bound - value) / max(abs(bound), TINY)
+        gap = objectives.gap(value, bound)
         if status == "optimal" and (gap is None or gap > OPTIMAL_RTOL):
             solver.setdefault("note", "optimality not claimed: bound and simulated value differ")
             status = "feasible"

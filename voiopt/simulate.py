@@ -7,35 +7,15 @@ only ``simulate`` turns them into values.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import physics
-from voiopt.errors import OptionError, PlanError
+from voiopt.errors import PlanError
 from voiopt.instance import Instance
-
-if TYPE_CHECKING:
-    from voiopt.result import Plan
-
-# name -> sense ("max" or "min"), MODEL.md section 5
-OBJECTIVES: dict[str, str] = {
-    "min-voi": "max",
-    "mean-min-voi": "max",
-    "max-aoi": "min",
-    "mean-max-aoi": "min",
-}
-
-
-def check_objective(objective: str) -> str:
-    if objective not in OBJECTIVES:
-        raise OptionError(f"objective: unknown objective {objective!r} (choose from {', '.join(OBJECTIVES)})")
-    return objective
-
-
-def sense(objective: str) -> str:
-    return OBJECTIVES[check_objective(objective)]
+from voiopt.objectives import metrics_of
+from voiopt.plan import Plan
 
 
 @dataclass(frozen=True)
@@ -92,6 +72,19 @@ def check_plan(instance: Instance, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
     return idx, sched
 
 
+def advance(aoi: np.ndarray, q: np.ndarray, upload: int, q_upload) -> tuple[np.ndarray, np.ndarray]:
+    """One slot of MODEL.md section 3: (A(t+1), q(t+1)) from (A(t), q(t)) when sensor
+    ``upload`` (or -1, none) uploads with effective distance ``q_upload``: every age grows by
+    one, the uploaded sensor's age becomes 1 and its q the upload's. (q may hold distances or
+    any per-sensor label of them, such as the MDP's distance indices.)"""
+    aoi = np.asarray(aoi) + 1
+    q = np.array(q, copy=True)
+    if upload >= 0:
+        aoi[upload] = 1
+        q[upload] = q_upload
+    return aoi, q
+
+
 def simulate(instance: Instance, plan: Plan) -> Trajectory:
     """Run a plan through the dynamics; reject illegal plans with a PlanError."""
     idx, sched = check_plan(instance, plan)
@@ -107,34 +100,15 @@ def simulate_indices(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> 
     aoi[0] = [s.initial_aoi for s in instance.sensors]
     dist[0] = [instance.initial_distance(i) for i in range(N)]
     for t in range(T):
-        aoi[t + 1] = aoi[t] + 1
-        dist[t + 1] = dist[t]
         u = sched[t]
-        if u >= 0:
-            aoi[t + 1, u] = 1
-            dist[t + 1, u] = lat.distance[u, idx[t]]
+        aoi[t + 1], dist[t + 1] = advance(aoi[t], dist[t], u, lat.distance[u, idx[t]] if u >= 0 else 0.0)
     rho = np.array([s.rho for s in instance.sensors])
     power = np.array([s.power_w for s in instance.sensors])
     v = physics.voi(aoi, dist, rho, power, instance.channel)
     return Trajectory(idx, sched, aoi, dist, v, metrics_of(aoi, v))
 
 
-def metrics_of(aoi: np.ndarray, v: np.ndarray) -> dict[str, float]:
-    """The four objectives of MODEL.md section 5 over slots t = 1..T."""
-    a, vv = aoi[1:], v[1:]
-    return {
-        "min-voi": float(vv.min()),
-        "mean-min-voi": float(vv.min(axis=1).mean()),
-        "max-aoi": int(a.max()),
-        "mean-max-aoi": float(a.max(axis=1).mean()),
-    }
-
-
 def evaluate(instance: Instance, plan: Plan) -> dict[str, float]:
     """The four metrics of a plan (raises PlanError if the plan is illegal)."""
     return simulate(instance, plan).metrics
 
-
-def better(objective: str, a: float, b: float) -> bool:
-    """Is value a strictly better than value b for this objective?"""
-    return a > b if sense(objective) == "max" else a < b

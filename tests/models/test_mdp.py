@@ -10,7 +10,7 @@ import voiopt
 from voiopt import lattice
 from voiopt.errors import OptionError
 from voiopt.models import mdp
-from voiopt.result import Plan
+from voiopt.plan import Plan
 from voiopt.simulate import simulate
 
 

@@ -5,15 +5,17 @@ from __future__ import annotations
 import highspy
 import numpy as np
 import pytest
-from bruteforce import brute_force
 from conftest import tiny_instances
+from oracles.bruteforce import brute_force
 
 import voiopt
 from voiopt import lattice
 from voiopt.errors import OptionError
 from voiopt.models import milp
-from voiopt.result import Plan
-from voiopt.simulate import better, simulate_indices
+from voiopt.models.milp.solution import clean_schedule
+from voiopt.objectives import better
+from voiopt.plan import Plan
+from voiopt.simulate import simulate_indices
 
 
 def random_plan(inst, rng):
@@ -66,7 +68,7 @@ def test_plan_columns_are_feasible_and_score_the_simulated_value(objective):
             act = model.matrix @ col
             assert (act <= model.row_upper + 1e-9).all() and (act >= model.row_lower - 1e-9).all()
             assert (col >= model.col_lower - 1e-12).all() and (col <= model.col_upper + 1e-12).all()
-            clean = milp.clean_schedule(model.structure, idx, sched)
+            clean = clean_schedule(model.structure, idx, sched)
             value = simulate_indices(inst, idx, clean).metrics[objective]
             got = model.worth_of_objective(model.cost @ col)
             worth = value if model.structure.kind == "voi" else -value

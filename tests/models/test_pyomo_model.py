@@ -4,11 +4,11 @@ appsi interface it reaches the array model's optimum, which is the brute-force o
 from __future__ import annotations
 
 import pytest
-from bruteforce import brute_force
 from conftest import tiny_instances
+from oracles.bruteforce import brute_force
 
 import voiopt
-from voiopt.result import Plan
+from voiopt.plan import Plan
 from voiopt.solvers.milp import TOLERANCES, solve
 
 pyo = pytest.importorskip("pyomo.environ")

@@ -8,8 +8,8 @@ from collections import deque
 
 import numpy as np
 import pytest
-from bruteforce import brute_force
 from conftest import tiny_instances
+from oracles.bruteforce import brute_force
 
 import voiopt
 from voiopt import lattice

@@ -5,12 +5,12 @@ from __future__ import annotations
 import importlib.util
 
 import pytest
-from bruteforce import brute_force
 from conftest import tiny_instances
+from oracles.bruteforce import brute_force
 
 import voiopt
 from voiopt.errors import OptionError
-from voiopt.simulate import OBJECTIVES
+from voiopt.objectives import OBJECTIVES
 from voiopt.solvers import dp
 
 RTOL = 1e-6
@@ -71,16 +71,23 @@ def test_time_limit_returns_a_legal_plan_and_a_valid_bound(objective):
     else:
         assert r.bound <= r.value
     if objective.startswith("mean"):
-        assert r.status == "time_limit" and r.solver["stopped"] == "time limit"
+        assert r.status == "time_limit" and r.solver["stopped"] == "time limit of 0.001 s reached"
     else:  # the bottleneck objectives may be closed by the incumbent and the first bound at once
         assert r.status == "time_limit" or (r.status == "optimal" and r.gap == 0)
 
 
-def test_memory_limit_stops_like_a_time_limit():
-    inst = voiopt.generate(6, 30, seed=5)
-    r = dp.solve(inst, "mean-min-voi", memory_limit=1e-9)
-    assert r.status == "time_limit" and r.solver["stopped"] == "memory limit"
-    assert r.bound >= r.value
+def test_memory_limit_stops_with_the_best_plan_and_bound():
+    inst = voiopt.generate(8, 30, seed=5)
+    limit = dp.table_bytes(inst) / 1e9 * 1.01  # the tables fit (the estimate is an upper bound); the labels do not
+    r = dp.solve(inst, "mean-min-voi", memory_limit=limit)
+    assert r.status == "memory_limit" and r.solver["stopped"] == f"memory limit of {limit:g} GB reached"
+    assert r.bound >= r.value and voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value
+
+
+def test_tables_over_the_memory_limit_are_refused_before_any_allocation():
+    inst = voiopt.generate(2, 6000, seed=5)  # the best-rank table alone, 2 N n T^2 bytes, is 5 GB
+    with pytest.raises(OptionError, match=r"--memory-limit: dp's tables need.* over the limit of 4 GB"):
+        dp.solve(inst, "mean-min-voi")
 
 
 def test_warm_start_is_used_and_optimum_unchanged(case_study):

@@ -24,6 +24,7 @@ from voiopt import lattice as lattice_mod
 from voiopt import physics
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
+from voiopt.simulate import advance
 
 REWARDS = ("voi", "aoi")
 REWARD_UNITS = ("bit/s", "bit/s/Hz")
@@ -87,8 +88,7 @@ class MDP:
         """(next state, reward) after action number k; plain Python, for the env and tests."""
         p, aoi, qidx, slot = state
         u = int(self.action_upload[p, k])
-        aoi = tuple(1 if i == u else a + 1 for i, a in enumerate(aoi))
-        qidx = tuple(1 + p if i == u else q for i, q in enumerate(qidx))
+        aoi, qidx = (tuple(a.tolist()) for a in advance(np.array(aoi, np.int64), np.array(qidx, np.int64), u, 1 + p))
         slot = slot + 1 if self.slot_in_state else 0
         return (int(self.action_next[p, k]), aoi, qidx, slot), self.reward_of(aoi, qidx, u)
 

@@ -6,7 +6,7 @@ objective's own units and sense: mean or minimum VoI in bit/s maximised, mean or
 minimised.
 
     from voiopt.models.pyomo_model import build
-    m = build(instance, "mean-min-voi")
+    m = build(instance, objective)
     pyo.SolverFactory("appsi_highs").solve(m)
 """
 
@@ -17,9 +17,11 @@ from typing import Any
 import numpy as np
 
 from voiopt import lattice as lattice_mod
+from voiopt import objectives
 from voiopt.errors import MissingExtraError
 from voiopt.instance import Instance
 from voiopt.models import milp
+from voiopt.models.milp.solution import plan_from_columns
 
 
 def build(instance: Instance, objective: str, *, scale: float | None = None) -> Any:
@@ -29,11 +31,11 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     except ImportError:
         raise MissingExtraError("pyomo", "pyomo") from None
 
-    kind = milp.worth_kind(objective)
+    kind = objectives.get(objective).worth
     st = milp.structure(instance, kind)
     lat = lattice_mod.build(instance)
     T = st.horizon
-    per_slot = objective in milp.PER_SLOT_OBJECTIVES
+    per_slot = objectives.get(objective).per_slot
     scale = float(scale) if scale is not None else milp.default_scale(st, objective)
     lt = milp.level_terms(st, per_slot)
     slots_z = list(range(1, T + 1)) if per_slot else [0]
@@ -110,10 +112,10 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
 
 def plan_indices(m: Any, instance: Instance, objective: str) -> tuple[np.ndarray, np.ndarray]:
     """(point indices, schedule with -1) of a solved model, uploads cleaned as in the array model."""
-    st = milp.structure(instance, milp.worth_kind(objective))
+    st = milp.structure(instance, objectives.get(objective).worth)
     col = np.zeros(st.n_x + st.n_uploads)
     for (p, t), var in m.x.items():
         col[st.x_col[t, p]] = var.value or 0.0
     for u, var in m.y.items():
         col[st.up_col[u]] = var.value or 0.0
-    return milp.plan_from_columns(st, col)
+    return plan_from_columns(st, col)

@@ -13,8 +13,8 @@ from typing import Any
 
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
+from voiopt.objectives import DEFAULT, check_objective
 from voiopt.result import Result
-from voiopt.simulate import check_objective
 
 # method name -> (module, function); each function is
 #   solve(instance, objective, *, progress=False, <its own keyword options>) -> Result
@@ -38,7 +38,7 @@ def solver_function(method: str):
     return getattr(importlib.import_module(module), function)
 
 
-def solve(instance: Instance, method: str = "milp", objective: str = "mean-min-voi", **options: Any) -> Result:
+def solve(instance: Instance, method: str = "milp", objective: str = DEFAULT, **options: Any) -> Result:
     """Solve ``instance`` with ``method`` for ``objective``; every value in the Result is simulated."""
     check_objective(objective)
     fn = solver_function(method)

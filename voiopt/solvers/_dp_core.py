@@ -273,13 +273,15 @@ def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma, pair):
     return ub
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_range_count, W, best_rank,
-           incumbent, q_lo, q_hi, beam, collapse, tdma, pair):
+           incumbent, q_lo, q_hi, beam, collapse, tdma, pair, halt):
     """Children in slot t+1 at target points q_lo..q_hi-1 of the layer in slot t.
 
     Returns the non-dominated children whose bound beats ``incumbent``, grouped by point:
-    (ranks, acc, ub, parent, upload, pos, count per point, children generated)."""
+    (ranks, acc, ub, parent, upload, pos, count per point, children generated, halted).
+    It runs without the GIL, and gives up (halted, with no children) as soon as ``halt[0]``
+    is set by the thread that watches the stop rule."""
     N = ranks.shape[1]
     tau = t + 1
     # capacity: every (label, upload) pair of every source point
@@ -327,6 +329,9 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
             if p < 0:
                 continue
             for l in range(off[p], off[p + 1]):
+                if halt[0]:
+                    return (out_rank[:0].copy(), out_acc[:0].copy(), out_ub[:0].copy(), out_par[:0].copy(),
+                            out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True)
                 if ub_in[l] <= incumbent:
                     continue
                 for o in range(-1, in_range_count[p]):
@@ -382,6 +387,9 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
         nk = 0
         last = 0  # the latest dominating label is tried first: dominators come in runs
         for j in range(m):
+            if (j & 255) == 0 and halt[0]:
+                return (out_rank[:0].copy(), out_acc[:0].copy(), out_ub[:0].copy(), out_par[:0].copy(),
+                        out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True)
             c = o1[o2[j]]
             dominated = nk > 0 and _ranks_geq(c_key[kept[last]], c_key[c])
             v = c_rank[c, bd] - lo_b
@@ -430,7 +438,7 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
             n_out += 1
         counts[q - q_lo] = nk
     return (out_rank[:n_out].copy(), out_acc[:n_out].copy(), out_ub[:n_out].copy(), out_par[:n_out].copy(),
-            out_up[:n_out].copy(), out_pos[:n_out].copy(), counts, generated)
+            out_up[:n_out].copy(), out_pos[:n_out].copy(), counts, generated, False)
 
 
 @njit(cache=True)

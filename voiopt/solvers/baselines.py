@@ -8,23 +8,32 @@ from __future__ import annotations
 
 import itertools
 import math
-import time
+import threading
 
 import networkx as nx
 import numpy as np
 
 from voiopt import lattice as lattice_mod
-from voiopt import physics
-from voiopt.errors import OptionError
+from voiopt import objectives, physics
 from voiopt.instance import Instance
-from voiopt.result import Plan, Result
-from voiopt.simulate import check_objective
+from voiopt.objectives import check_objective
+from voiopt.plan import Plan
+from voiopt.result import Result
+from voiopt.simulate import advance
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    check_limits,
+    check_seed,
+    lattice_bytes,
+    require_memory,
+)
+from voiopt.stop import Stop, watch
 
 EXACT_TOUR_MAX_SENSORS = 7  # exact order enumeration up to N! = 5040 orders
 
 
 def _is_aoi(objective: str) -> bool:
-    return "aoi" in check_objective(objective)
+    return objectives.get(objective).worth == "aoi"
 
 
 def _steps_to_sensor(instance: Instance) -> np.ndarray:
@@ -57,12 +66,7 @@ class _Slot:
         Score: leximin of the VoI vector (lowest VoI first), or for AoI objectives the leximax
         of the ages negated, so ties on the bottleneck are broken by the next-worst sensor."""
         us = self.uploads(p)
-        A = np.repeat((aoi + 1)[None, :], len(us), axis=0)
-        Q = np.repeat(dist[None, :], len(us), axis=0)
-        for r, u in enumerate(us):
-            if u >= 0:
-                A[r, u] = 1
-                Q[r, u] = self.lat.distance[u, p]
+        A, Q = (np.array(rows) for rows in zip(*(advance(aoi, dist, u, self.lat.distance[u, p]) for u in us), strict=True))
         if self.aoi_objective:
             scores = [tuple(-np.sort(a)[::-1]) for a in A]
         else:
@@ -80,14 +84,24 @@ class _Slot:
         return int(np.argmax(badness))
 
 
-def greedy(instance: Instance, objective: str, *, progress: bool = False) -> Result:
+def greedy(instance: Instance, objective: str, *, progress: bool = False, time_limit: float | None = None,
+           memory_limit: float = DEFAULT_MEMORY_GB) -> Result:
     """Each slot, the upload and move that make the next slot best (min VoI, or max AoI).
 
     Ties are broken in turn by: the best next-but-one slot with the best upload at the new
     position (one-step lookahead); the whole next VoI vector, lowest first (AoI: the ages,
     largest first); fewest moves into range of the then worst sensor; the lookahead's whole
-    vector; finally the order none < sensor 0 < ... and stay < N < S < E < W. Deterministic."""
-    t0 = time.perf_counter()
+    vector; finally the order none < sensor 0 < ... and stay < N < S < E < W. Deterministic.
+    Stopped early (time, memory, Ctrl-C), the entity stays and uploads nothing from then on."""
+    check_objective(objective)
+    check_limits(time_limit, memory_limit)
+    N, n = instance.n_sensors, lattice_mod.n_points(instance)
+    require_memory(lattice_bytes(instance) + 8.0 * N * n + 16.0 * (N + 1) * N, memory_limit, "greedy's tables")
+    with watch(time_limit, memory_limit) as stop:
+        return _greedy(instance, objective, stop)
+
+
+def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
     aoi_objective = _is_aoi(objective)
     slot = _Slot(instance, aoi_objective)
     lat = slot.lat
@@ -100,6 +114,8 @@ def greedy(instance: Instance, objective: str, *, progress: bool = False) -> Res
     for _ in range(instance.horizon):
         best_key, best = None, None
         for u, a1, q1, score1 in slot.step(aoi, dist, p):
+            if stop.check():
+                break
             worst = slot.bottleneck(a1, q1, reachable)
             for m in range(5):
                 p1 = int(lat.neighbors[p, m])
@@ -110,15 +126,20 @@ def greedy(instance: Instance, objective: str, *, progress: bool = False) -> Res
                 key = (score1[0], lookahead[0], score1, -steps, lookahead)
                 if best_key is None or key > best_key:
                     best_key, best = key, (u, m, a1, q1, p1)
+        if stop.requested:
+            break
         u, _, aoi, dist, p1 = best
         idx.append(p)
         sched.append(u)
         p = p1
-    plan = Plan.from_indices(instance, idx, sched)
+    solver = {"rule": "aoi" if aoi_objective else "voi", "lookahead": 1}
+    if stop.requested:
+        solver["stopped"] = f"{stop.describe()} after {len(idx)} of {instance.horizon} slots; then staying idle"
+        idx += [p] * (instance.horizon - len(idx))
+        sched += [-1] * (instance.horizon - len(sched))
     return Result.from_plan(
-        instance, "greedy", objective, plan, status="feasible",
-        runtime_s=time.perf_counter() - t0,
-        solver={"rule": "aoi" if aoi_objective else "voi", "lookahead": 1},
+        instance, "greedy", objective, Plan.from_indices(instance, idx, sched), status=stop.reason or "feasible",
+        runtime_s=stop.elapsed(), solver=solver,
     )
 
 
@@ -150,13 +171,35 @@ def _best_points_for_order(order, candidates, dist, start) -> tuple[float, list[
     return min(((c + dist[p][start], ps) for p, (c, ps) in cost.items()), key=lambda x: x[0])
 
 
-def _tour(instance: Instance, g: nx.Graph, seed: int) -> tuple[list[int], dict]:
-    """Waypoints (one in-range point per servable sensor) of a shortest closed walk from start."""
+class _Moves:
+    """dist[p][q]: the fewest moves between lattice points p and q (Manhattan on the full
+    lattice), without a table of all pairs."""
+
+    def __init__(self, coords: np.ndarray) -> None:
+        self.coords = coords
+
+    def __getitem__(self, p: int):
+        row = self.coords[p]
+        coords = self.coords
+
+        class _Row:
+            def __getitem__(self, q: int) -> int:
+                return int(abs(coords[q, 0] - row[0]) + abs(coords[q, 1] - row[1]))
+
+        return _Row()
+
+
+HEURISTIC_TOUR_MAX_SENSORS = 200  # simulated annealing up to here; nearest neighbour above
+
+
+def _tour(instance: Instance, stop: Stop, seed: int) -> tuple[list[int], dict]:
+    """Waypoints (one in-range point per servable sensor) of a shortest closed walk from start.
+    Stopped early, the sensors' index order is the tour."""
     lat = lattice_mod.build(instance)
     start = lat.start
     servable = [i for i in range(instance.n_sensors) if lat.in_range[i].any()]
     candidates = {i: np.flatnonzero(lat.in_range[i]).tolist() for i in servable}
-    dist = dict(nx.all_pairs_shortest_path_length(g))
+    dist = _Moves(lat.coords)
     info = {"unservable_sensors": [i for i in range(instance.n_sensors) if i not in servable]}
     if len(servable) <= EXACT_TOUR_MAX_SENSORS:
         best = (math.inf, [])
@@ -164,38 +207,79 @@ def _tour(instance: Instance, g: nx.Graph, seed: int) -> tuple[list[int], dict]:
             cand = _best_points_for_order(order, candidates, dist, start)
             if cand[0] < best[0]:
                 best = cand
-        info["tour"] = "exact"
+            if stop.check():
+                break
+        info["tour"] = "exact" if not stop.requested else "best order found before the stop"
     else:
-        # Heuristic: an order from networkx's TSP (simulated annealing, fixed seed) over the
-        # sensors with the fewest moves between their in-range sets, then the exact DP above
-        # picks the points for that order.
-        h = nx.complete_graph(["start", *servable])
-        def gap(a, b):
-            qa = [start] if a == "start" else candidates[a]
-            qb = [start] if b == "start" else candidates[b]
-            return min(dist[x][y] for x in qa for y in qb)
-        for a, b in h.edges:
-            h[a][b]["weight"] = gap(a, b)
-        cycle = nx.approximation.simulated_annealing_tsp(h, "greedy", weight="weight", seed=seed)
-        k = cycle.index("start")
-        order = [v for v in cycle[k + 1:] + cycle[1:k] if v != "start"]
+        order = None
+        if len(servable) <= HEURISTIC_TOUR_MAX_SENSORS:
+            order = _annealed_order(servable, candidates, dist, start, stop, seed)
+            info["tour"] = "heuristic: networkx simulated_annealing_tsp order + exact point choice"
+        if order is None:  # many sensors, or stopped: the nearest sensor next
+            order = _nearest_order(servable, candidates, dist, start, stop)
+            info["tour"] = "heuristic: nearest neighbour order + exact point choice"
         best = _best_points_for_order(order, candidates, dist, start)
-        info["tour"] = "heuristic: networkx simulated_annealing_tsp order + exact point choice"
     info["tour_length"] = int(best[0]) if math.isfinite(best[0]) else 0
     return best[1], info
 
 
-def shortest_path(instance: Instance, objective: str, *, progress: bool = False, seed: int = 0) -> Result:
+def _nearest_order(servable, candidates, dist, start, stop: Stop) -> list[int]:
+    """From the start, the sensor nearest to the last one's points next (index order once stopped)."""
+    order, left, here = [], set(servable), [start]
+    while left and not stop.check():
+        nxt = min(left, key=lambda i: (min(dist[x][y] for x in here for y in candidates[i]), i))
+        order.append(nxt)
+        left.discard(nxt)
+        here = candidates[nxt]
+    return order + sorted(left)
+
+
+def _annealed_order(servable, candidates, dist, start, stop: Stop, seed: int) -> list[int] | None:
+    """An order from networkx's TSP (simulated annealing, fixed seed) over the sensors with the
+    fewest moves between their in-range sets; None if the stop rule ends it first."""
+    h = nx.complete_graph(["start", *servable])
+
+    def gap(a, b):
+        qa = [start] if a == "start" else candidates[a]
+        qb = [start] if b == "start" else candidates[b]
+        return min(dist[x][y] for x in qa for y in qb)
+
+    for a, b in h.edges:
+        if stop.check():
+            return None
+        h[a][b]["weight"] = gap(a, b)
+    box: list = []
+    worker = threading.Thread(target=lambda: box.append(
+        nx.approximation.simulated_annealing_tsp(h, "greedy", weight="weight", seed=seed)), daemon=True)
+    worker.start()
+    while worker.is_alive():  # the annealing cannot be interrupted: it is left behind if need be
+        worker.join(0.05)
+        if stop.check():
+            return None
+    cycle = box[0]
+    k = cycle.index("start")
+    return [v for v in cycle[k + 1:] + cycle[1:k] if v != "start"]
+
+
+def shortest_path(instance: Instance, objective: str, *, progress: bool = False, seed: int = 0,
+                  time_limit: float | None = None, memory_limit: float = DEFAULT_MEMORY_GB) -> Result:
     """The paper's benchmark: the shortest closed walk from start that comes within d_th of
     every sensor, followed cyclically for T slots, uploading the in-range sensor of largest
-    AoI each slot (lowest index on ties). Exact tour for N <= 7, a heuristic above."""
-    t0 = time.perf_counter()
+    AoI each slot (lowest index on ties). Exact tour for N <= 7, a heuristic above; stopped
+    early (time, memory, Ctrl-C), the best tour found so far."""
     check_objective(objective)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise OptionError(f"seed: must be an integer >= 0, got {seed!r}")
+    check_seed(seed)
+    check_limits(time_limit, memory_limit)
+    n = lattice_mod.n_points(instance)
+    require_memory(lattice_bytes(instance) + 1000.0 * n, memory_limit, "shortest-path's lattice graph and tables")
+    with watch(time_limit, memory_limit) as stop:
+        return _shortest_path(instance, objective, stop, int(seed))
+
+
+def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) -> Result:
     lat = lattice_mod.build(instance)
     g = _lattice_graph(instance)
-    waypoints, info = _tour(instance, g, int(seed))
+    waypoints, info = _tour(instance, stop, seed)
     walk = [lat.start]
     for q in [*waypoints, lat.start]:
         walk.extend(nx.shortest_path(g, walk[-1], q)[1:])
@@ -206,13 +290,13 @@ def shortest_path(instance: Instance, objective: str, *, progress: bool = False,
         p = cycle[t % len(cycle)]
         in_range = np.flatnonzero(lat.in_range[:, p])
         u = int(in_range[np.argmax(aoi[in_range])]) if len(in_range) else -1
-        aoi += 1
-        if u >= 0:
-            aoi[u] = 1
+        aoi, _ = advance(aoi, aoi, u, 1)  # ages only
         idx.append(p)
         sched.append(u)
     plan = Plan.from_indices(instance, idx, sched)
+    if stop.requested:
+        info["stopped"] = stop.describe()
     return Result.from_plan(
-        instance, "shortest-path", objective, plan, status="feasible",
-        runtime_s=time.perf_counter() - t0, solver={**info, "seed": int(seed)},
+        instance, "shortest-path", objective, plan, status=stop.reason or "feasible",
+        runtime_s=stop.elapsed(), solver={**info, "seed": int(seed)},
     )

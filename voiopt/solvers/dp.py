@@ -9,20 +9,30 @@ change the objective are collapsed. The compiled kernels live in ``_dp_core``.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from voiopt import lattice as lattice_mod
-from voiopt import physics
-from voiopt.errors import OptionError, VoioptError
+from voiopt import objectives, physics
+from voiopt.errors import VoioptError
 from voiopt.instance import Instance
-from voiopt.interrupt import progress_bar, stop_on_interrupt
-from voiopt.result import Plan, Result
+from voiopt.objectives import check_objective
+from voiopt.plan import Plan
+from voiopt.progress import progress_bar
+from voiopt.result import Result
 from voiopt.simulate import simulate
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    check_limits,
+    lattice_bytes,
+    points_in_range,
+    require_memory,
+)
+from voiopt.stop import TIME_LIMIT, Stop, watch
 
-AOI_OBJECTIVES = ("max-aoi", "mean-max-aoi")
 CHUNK_WORK = 100_000  # (label, upload) pairs per kernel call: the granularity of time checks
 DEFAULT_BEAM = 16
 QUICK_BEAM = 2  # labels per point of the beam pass that gives the first incumbent
@@ -50,6 +60,11 @@ class Tables:
     coords: np.ndarray  # (n, 2) lattice coordinates
     pair: np.ndarray = field(default_factory=lambda: np.empty((0, 0, 0, 0, 0)))  # pair_table, or empty
 
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the tables (they count against the memory limit with the labels)."""
+        return sum(v.nbytes for v in vars(self).values() if isinstance(v, np.ndarray))
+
     def with_pair_bound(self, max_bytes: float = PAIR_TABLE_BYTES) -> None:
         """Compute the pairwise travel table (skipped if it would exceed ``max_bytes``)."""
         from voiopt.solvers import _dp_core as core
@@ -60,13 +75,20 @@ class Tables:
                                         self.sensor_point_count)
 
 
+def table_bytes(instance: Instance) -> float:
+    """An upper bound on the bytes of build_tables, from the instance's sizes alone."""
+    T, N, n = instance.horizon, instance.n_sensors, lattice_mod.n_points(instance)
+    R = 2.0 + T * points_in_range(instance)  # candidate uploads per sensor
+    return lattice_bytes(instance) + 2.0 * T * n * N + 8.0 * N * R * (T + 1) + 120.0 * N * R + 2.0 * N * n * T * (T + 1)
+
+
 def build_tables(instance: Instance, objective: str) -> Tables:
     """Candidate uploads per sensor, their ranks by score, and the value table W."""
     from voiopt.solvers import _dp_core as core
 
     lat = lattice_mod.build(instance)
     T, N, n = instance.horizon, instance.n_sensors, lat.n_points
-    aoi = objective in AOI_OBJECTIVES
+    aoi = objectives.get(objective).worth == "aoi"
     # candidates (s, d): an upload in slot s at distance d; the held packet is s = -A_i(0), d = q_i(0)
     cand_lists = []
     for i, sensor in enumerate(instance.sensors):
@@ -118,7 +140,7 @@ def build_tables(instance: Instance, objective: str) -> Tables:
         ids = np.flatnonzero(lat.in_range[i])
         sensor_points[i, : len(ids)] = ids
     best_rank = core.best_rank_table(up_rank, lat.coords.astype(np.int64), sensor_points, sensor_point_count)
-    mode = core.SUM if objective.startswith("mean") else core.MIN
+    mode = core.SUM if objectives.get(objective).per_slot else core.MIN
     to_internal = (T if mode == core.SUM else 1.0) * (-1.0 if aoi else 1.0)
     return Tables(mode, initial_rank, up_rank, W, best_rank, in_range_list, in_range_count,
                   np.ascontiguousarray(lat.neighbors, dtype=np.int64), lat.start, to_internal, objective,
@@ -140,11 +162,12 @@ class SearchOutcome:
 
 
 def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = True, bounding: bool = True,
-           tdma: bool = True,
-           deadline: float | None = None, memory_bytes: float | None = None, label_budget: int | None = None,
-           stop=None, progress: bool = False) -> SearchOutcome:
+           tdma: bool = True, stop: Stop | None = None, label_budget: int | None = None,
+           progress: bool = False) -> SearchOutcome:
     """One forward pass. ``beam`` > 0 keeps only that many labels per point (a heuristic).
-    It stops early, incomplete, on the deadline, the memory, Ctrl-C or more than ``label_budget`` labels."""
+    It stops early, incomplete, when the stop rule says so (time, memory of its labels,
+    Ctrl-C) or after more than ``label_budget`` labels."""
+    stop = stop or Stop()
     from voiopt.solvers import _dp_core as core
 
     T, n, N = tab.up_rank.shape
@@ -183,15 +206,17 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                 while q_hi < n and total + work[q_hi] <= CHUNK_WORK:
                     total += work[q_hi]
                     q_hi += 1
-                out = core.expand(tab.mode, t, l_ranks, l_acc, l_ub, off, tab.neighbors, tab.up_rank,
-                                  tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo, q_hi,
-                                  beam, collapse, tdma, tab.pair)
+                out = _watched(stop, core.expand, tab.mode, t, l_ranks, l_acc, l_ub, off, tab.neighbors,
+                               tab.up_rank, tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo,
+                               q_hi, beam, collapse, tdma, tab.pair)
+                if out[8]:  # halted by the stop rule: this layer is abandoned, its parents stay open
+                    return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stop.reason)
                 out = (*out[:3], idx[out[3]], *out[4:])
                 parts.append(out)
                 generated += int(out[7])
                 q_lo = q_hi
                 if q_lo < n:
-                    stopped = _must_stop(deadline, stop, memory_bytes, stored + sum(p[0].nbytes for p in parts),
+                    stopped = _must_stop(stop, tab.nbytes + stored + sum(p[0].nbytes for p in parts),
                                          label_budget, labels + sum(len(p[1]) for p in parts))
                     if stopped:
                         break
@@ -213,7 +238,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels")
             if len(acc) == 0:
                 return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, t + 1)
-            stopped = _must_stop(deadline, stop, memory_bytes, stored + layer_bytes, label_budget, labels)
+            stopped = _must_stop(stop, tab.nbytes + stored + layer_bytes, label_budget, labels)
             if t + 1 < T - 1 and stopped:
                 return _incomplete(ub, ub > inc, labels, generated, peak_layer, peak_bytes, t + 1, stopped)
         keep = np.flatnonzero(ub > inc)
@@ -237,21 +262,43 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                          peak_bytes, T)
 
 
+WATCH_S = 0.05  # how often the stop rule is checked while a kernel runs
+
+
+def _watched(stop: Stop, kernel, *args):
+    """Run a nogil kernel (whose last argument is a halt flag) in a thread; the calling thread
+    checks the stop rule every WATCH_S seconds and raises the flag, so a time limit or Ctrl-C
+    stops even one long kernel call within a fraction of a second."""
+    halt = np.zeros(1, dtype=np.uint8)
+    box: list = []
+    worker = threading.Thread(target=lambda: box.append(kernel(*args, halt)), daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(WATCH_S)
+            if stop.check() is not None:
+                halt[0] = 1
+    finally:  # a second Ctrl-C raises here: the kernel must not run on behind it
+        if worker.is_alive():
+            halt[0] = 1
+    if not box:
+        raise RuntimeError("dp: a kernel failed in its thread")
+    return box[0]
+
+
 def _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stopped) -> SearchOutcome:
     open_bound = float(ub[keep].max()) if keep.any() else -np.inf
     return SearchOutcome(-np.inf, None, False, open_bound, labels, generated, peak_layer, peak_bytes, t, stopped)
 
 
-def _must_stop(deadline, stop, memory_bytes, used, label_budget, labels) -> str | None:
-    if stop is not None and stop.requested:
-        return "interrupted"
-    if deadline is not None and time.perf_counter() >= deadline:
-        return "time limit"
-    if memory_bytes is not None and used >= memory_bytes:
-        return "memory limit"
-    if label_budget is not None and labels > label_budget:
-        return "label budget"
-    return None
+LABEL_BUDGET = "label budget"  # a pass's own budget, not a stop of the solve
+
+
+def _must_stop(stop: Stop, used: float, label_budget, labels) -> str | None:
+    reason = stop.check(used)
+    if reason is None and label_budget is not None and labels > label_budget:
+        return LABEL_BUDGET
+    return reason
 
 
 def _internal(tab: Tables, value: float) -> float:
@@ -276,7 +323,7 @@ def warm_up() -> float:
 
     t0 = time.perf_counter()
     tiny = generate(2, 4, width=2.0, height=2.0, seed=0, name="warm-up")
-    for objective in ("min-voi", "mean-min-voi", "max-aoi", "mean-max-aoi"):
+    for objective in objectives.OBJECTIVES:
         solve(tiny, objective, fast_budget=1)  # every pass and bound runs once
     return time.perf_counter() - t0
 
@@ -287,32 +334,32 @@ def solve(
     *,
     progress: bool = False,
     time_limit: float | None = None,
-    memory_limit: float | None = None,
+    memory_limit: float = DEFAULT_MEMORY_GB,
     warm_start: Plan | None = None,
     beam: int = DEFAULT_BEAM,
-    greedy: bool = True,
-    collapse: bool = True,
-    bounding: bool = True,
-    tdma: bool = True,
-    pair_bound: bool = True,
+    greedy: bool = True, collapse: bool = True, bounding: bool = True, tdma: bool = True, pair_bound: bool = True,
     fast_budget: int = FAST_BUDGET,
     quick_beam: int = QUICK_BEAM,
 ) -> Result:
-    """Optimal plan by label setting; on a time or memory limit (or Ctrl-C) the best plan and a
-    proven bound with status time_limit.
+    """Optimal plan by label setting; on a time or memory limit (GB, of the labels) or Ctrl-C,
+    the best plan and a proven bound, with the stop's reason as the status.
 
     Small instances are solved by one pass with no incumbent but the warm start: if that pass
     needs more than ``fast_budget`` labels it is abandoned, incumbents are computed (greedy and
     a beam pass of width ``beam``) and a bounded pass proves the optimum. ``greedy``,
     ``collapse`` and ``bounding`` switch ingredients off for measurements (docs/dp.md)."""
-    if time_limit is not None and not time_limit > 0:
-        raise OptionError(f"--time-limit: must be > 0 seconds, got {time_limit:g}")
-    if memory_limit is not None and not memory_limit > 0:
-        raise OptionError(f"--memory-limit: must be > 0 GB, got {memory_limit:g}")
+    check_objective(objective)
+    check_limits(time_limit, memory_limit)
+    require_memory(table_bytes(instance), memory_limit, "dp's tables")
     startup_s = warm_up()
-    t0 = time.perf_counter()
-    deadline = None if time_limit is None else t0 + float(time_limit)
-    memory_bytes = None if memory_limit is None else float(memory_limit) * 1e9
+    with watch(time_limit, memory_limit) as stop:
+        return _solve(instance, objective, stop, startup_s, warm_start=warm_start, beam=beam, greedy=greedy,
+                      collapse=collapse, bounding=bounding, tdma=tdma, pair_bound=pair_bound,
+                      fast_budget=fast_budget, quick_beam=quick_beam, progress=progress)
+
+
+def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, warm_start, beam, greedy,
+           collapse, bounding, tdma, pair_bound, fast_budget, quick_beam, progress) -> Result:
     tab = build_tables(instance, objective)
 
     best_plan: Plan | None = None
@@ -332,32 +379,31 @@ def solve(
     if warm_start is not None:
         offer(warm_start, "warm_start")
     passes = []
-    with stop_on_interrupt() as stop:
-        # the fast passes use only the cheap bound: at the paper's scale the tight ones cost more than they save
-        limits = dict(collapse=collapse, bounding=bounding, tdma=False, deadline=deadline, memory_bytes=memory_bytes,
-                      stop=stop)
-        if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
-            b = search(tab, inc(), beam=quick_beam, **limits)
-            passes.append((f"beam {quick_beam}", b))
+    # the fast passes use only the cheap bound: at the paper's scale the tight ones cost more than they save
+    limits = dict(collapse=collapse, bounding=bounding, tdma=False, stop=stop)
+    if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
+        b = search(tab, inc(), beam=quick_beam, **limits)
+        passes.append((f"beam {quick_beam}", b))
+        if b.plan is not None:
+            offer(Plan.from_indices(instance, *b.plan), f"beam {quick_beam}")
+    out = search(tab, inc(), label_budget=fast_budget, progress=progress, **limits)
+    passes.append(("fast", out))
+    if not out.complete:
+        plan = _greedy_plan(instance, objective, stop) if greedy and not stop.requested else None
+        if plan is not None:
+            offer(plan, "greedy")
+        if pair_bound and tdma and out.stopped == LABEL_BUDGET:
+            room = PAIR_TABLE_BYTES if stop.memory_bytes is None else stop.memory_bytes - 2 * tab.nbytes
+            tab.with_pair_bound(min(PAIR_TABLE_BYTES, room))  # within the memory limit, with room for labels
+        limits["tdma"] = tdma
+        if beam > 0 and out.stopped == LABEL_BUDGET:
+            b = search(tab, inc(), beam=beam, **limits)
+            passes.append((f"beam {beam}", b))
             if b.plan is not None:
-                offer(Plan.from_indices(instance, *b.plan), f"beam {quick_beam}")
-        out = search(tab, inc(), label_budget=fast_budget, progress=progress, **limits)
-        passes.append(("fast", out))
-        if not out.complete:
-            plan = _greedy_plan(instance, objective) if greedy else None
-            if plan is not None:
-                offer(plan, "greedy")
-            if pair_bound and tdma and out.stopped == "label budget":
-                tab.with_pair_bound()
-            limits["tdma"] = tdma
-            if beam > 0 and out.stopped == "label budget":
-                b = search(tab, inc(), beam=beam, **limits)
-                passes.append((f"beam {beam}", b))
-                if b.plan is not None:
-                    offer(Plan.from_indices(instance, *b.plan), f"beam {beam}")
-            if out.stopped == "label budget":
-                out = search(tab, inc(), progress=progress, **limits)
-                passes.append(("bounded", out))
+                offer(Plan.from_indices(instance, *b.plan), f"beam {beam}")
+        if out.stopped == LABEL_BUDGET:
+            out = search(tab, inc(), progress=progress, **limits)
+            passes.append(("bounded", out))
     if out.plan is not None:
         plan = Plan.from_indices(instance, *out.plan)
         found = _internal(tab, simulate(instance, plan).metrics[objective])
@@ -372,7 +418,7 @@ def solve(
     if out.complete:
         bound_internal, status = max(best_value, out.value), "optimal"
     else:
-        bound_internal, status = max(best_value, out.open_bound), "time_limit"
+        bound_internal, status = max(best_value, out.open_bound), stop.reason or TIME_LIMIT
     solver = {
         "passes": {name: dict(labels=p.labels, children_generated=p.generated, peak_layer_labels=p.peak_layer,
                               slots_done=p.slots_done, complete=p.complete)
@@ -382,18 +428,20 @@ def solve(
         "incumbents": incumbents,
         "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding, "tdma": tdma,
                     "pair_bound": tab.pair.shape[0] > 0,
-                    "fast_budget": fast_budget, "time_limit": time_limit, "memory_limit": memory_limit},
+                    "fast_budget": fast_budget, "time_limit": stop.time_limit, "memory_limit": stop.memory_limit},
     }
     solver["startup_s"] = startup_s
     if not out.complete:
-        solver["stopped"] = out.stopped
+        solver["stopped"] = stop.describe()
     return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=_external(tab, bound_internal),
-                            runtime_s=time.perf_counter() - t0, solver=solver)
+                            runtime_s=stop.elapsed(), solver=solver)
 
 
-def _greedy_plan(instance: Instance, objective: str) -> Plan | None:
-    try:
-        from voiopt.solvers.baselines import greedy
-    except ImportError:  # the baseline is optional for the DP
+def _greedy_plan(instance: Instance, objective: str, stop: Stop) -> Plan | None:
+    """Greedy's plan as an incumbent, within the time left (its own stop rule follows ours)."""
+    from voiopt.solvers.baselines import greedy
+
+    left = stop.remaining()
+    if left is not None and left <= 0:
         return None
-    return greedy(instance, objective).plan
+    return greedy(instance, objective, time_limit=left, memory_limit=stop.memory_limit).plan

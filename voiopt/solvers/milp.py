@@ -16,17 +16,32 @@ from __future__ import annotations
 
 import math
 import sys
+import threading
 import time
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
+from voiopt import lattice as lattice_mod
+from voiopt import objectives
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
-from voiopt.interrupt import StopFlag, stop_on_interrupt
 from voiopt.models import milp as model_mod
-from voiopt.result import Plan, Result
-from voiopt.simulate import better, check_objective, check_plan, simulate_indices
+from voiopt.objectives import DEFAULT, check_objective
+from voiopt.plan import Plan
+from voiopt.result import Result
+from voiopt.simulate import check_plan
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    Incumbent,
+    check_limits,
+    check_threads,
+    lattice_bytes,
+    points_in_range,
+    require_memory,
+)
+from voiopt.stop import TIME_LIMIT, Stop, watch
 
 METHOD = "milp"
 PATCH_RTOL = 5e-7  # an "optimal" must be met to this relative gap (half of Result's 1e-6)
@@ -45,7 +60,7 @@ TOLERANCES = {
 
 def solve(
     instance: Instance,
-    objective: str = "mean-min-voi",
+    objective: str = DEFAULT,
     *,
     progress: bool = False,
     time_limit: float | None = None,
@@ -53,46 +68,48 @@ def solve(
     threads: int | None = None,
     warm_start: Plan | None = None,
     verbose: bool = False,
+    memory_limit: float = DEFAULT_MEMORY_GB,
 ) -> Result:
     """Solve ``instance`` exactly for ``objective`` (within ``time_limit`` seconds, if given).
     ``verbose`` shows HiGHS's own log on stderr."""
     check_objective(objective)
-    if time_limit is not None and not time_limit > 0:
-        raise OptionError(f"--time-limit: must be > 0 seconds, got {time_limit:g}")
+    check_limits(time_limit, memory_limit)
     if gap is not None and not gap >= 0:
         raise OptionError(f"--gap: must be >= 0, got {gap:g}")
-    if threads is not None and threads < 1:
-        raise OptionError(f"--threads: must be >= 1, got {threads}")
-    t0 = time.perf_counter()
-    deadline = None if time_limit is None else t0 + time_limit
-    run = _Run(instance, objective, verbose, deadline, gap, threads)
-    run.offer_plan(*_warm_plan(instance, objective, warm_start), source="warm start")
-    run.details["warm_start"] = "given" if warm_start is not None else "greedy"
-    run.details["warm_start_s"] = time.perf_counter() - t0
-    with stop_on_interrupt() as stop:
-        run.stop = stop
-        if objective in model_mod.PER_SLOT_OBJECTIVES:
+    check_threads(threads)
+    T, n = instance.horizon, lattice_mod.n_points(instance)
+    columns = T * n + T * instance.n_sensors * points_in_range(instance) * (2 if objectives.get(objective).per_slot else 1)
+    require_memory(lattice_bytes(instance) + 2000.0 * columns, memory_limit, "the MILP and HiGHS")
+    with watch(time_limit, memory_limit) as stop:
+        run = _Run(instance, objective, verbose, stop, gap, threads)
+        run.incumbent.offer(*_warm_plan(instance, objective, warm_start, stop), source="warm start")
+        run.details["warm_start"] = "given" if warm_start is not None else "greedy"
+        run.details["warm_start_s"] = stop.elapsed()
+        if objectives.get(objective).per_slot:
             status, bound = run.solve_mean()
         else:
             status, bound = run.solve_bisection()
-    idx, sched = run.best_plan
-    plan = Plan.from_indices(instance, idx, sched)
-    run.details["runtime_s"] = time.perf_counter() - t0
+    run.details["plan_source"] = run.incumbent.source
+    if status == TIME_LIMIT and not stop.requested:  # HiGHS's own clock ran out first
+        stop.request(TIME_LIMIT)
     if stop.requested:
-        run.details["stopped"] = stop.reason
+        run.details["stopped"] = stop.describe()
     return Result.from_plan(
-        instance, METHOD, objective, plan, status=status, bound=bound,
-        runtime_s=time.perf_counter() - t0, solver=run.details,
+        instance, METHOD, objective, run.incumbent.plan, status=status, bound=bound,
+        runtime_s=stop.elapsed(), solver=run.details,
     )
 
 
-def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None) -> tuple[np.ndarray, np.ndarray]:
-    """The given plan, else the greedy baseline's: the MILP always has a plan to return."""
+def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None, stop: Stop) -> tuple[np.ndarray, np.ndarray]:
+    """The given plan, else the greedy baseline's (within the time left; stopped, greedy hands
+    back a legal plan all the same): the MILP always has a plan to return."""
     if warm_start is not None:
         return check_plan(instance, warm_start)  # PlanError (exit 2) if it does not fit
     from voiopt.solvers.baselines import greedy
 
-    return check_plan(instance, greedy(instance, objective).plan)
+    left = stop.remaining()
+    return check_plan(instance, greedy(instance, objective, time_limit=None if left is None else max(left, 1e-3),
+                                       memory_limit=stop.memory_limit).plan)
 
 
 def _stopped_statuses() -> tuple:
@@ -108,17 +125,15 @@ _STOPPED = _stopped_statuses()
 class _Run:
     """State of one solve: the incumbent plan, the clock, the HiGHS options and the details."""
 
-    def __init__(self, instance, objective, verbose, deadline, gap, threads) -> None:
+    def __init__(self, instance, objective, verbose, stop: Stop, gap, threads) -> None:
         self.instance = instance
         self.objective = objective
-        self.kind = model_mod.worth_kind(objective)
+        self.kind = objectives.get(objective).worth
         self.verbose = verbose
-        self.deadline = deadline
+        self.stop = stop
         self.gap = 0.0 if gap is None else float(gap)
         self.threads = threads
-        self.stop: StopFlag | None = None
-        self.best_plan: tuple[np.ndarray, np.ndarray] | None = None
-        self.best_value: float | None = None
+        self.incumbent = Incumbent(instance, objective)
         self.details: dict[str, Any] = {
             "options": {"mip_rel_gap": self.gap, "threads": threads, **TOLERANCES},
             "nodes": 0, "solves": 0, "build_s": 0.0, "solve_s": 0.0,
@@ -126,25 +141,15 @@ class _Run:
 
     # ----------------------------------------------------------------------- plans
 
-    def offer_plan(self, idx, sched, source: str) -> float:
-        """Simulate a plan; keep it if it beats the incumbent. Returns its simulated value."""
-        idx, sched = np.asarray(idx, np.int64), np.asarray(sched, np.int64)
-        value = simulate_indices(self.instance, idx, sched).metrics[self.objective]
-        if self.best_value is None or better(self.objective, value, self.best_value):
-            self.best_plan, self.best_value = (idx, sched), value
-            self.details["plan_source"] = source
-        return value
-
     def worth(self, value: float) -> float:
         """An objective value as a worth (AoI objectives are minimised: worth = -A)."""
         return value if self.kind == "voi" else -value
 
     def remaining(self) -> float | None:
-        return None if self.deadline is None else self.deadline - time.perf_counter()
+        return self.stop.remaining()
 
     def out_of_time(self) -> bool:
-        r = self.remaining()
-        return (r is not None and r <= 0) or (self.stop is not None and self.stop.requested)
+        return self.stop.check() is not None
 
     # ----------------------------------------------------------------------- HiGHS
 
@@ -152,7 +157,7 @@ class _Run:
         import highspy
 
         t = time.perf_counter()
-        h = highspy.Highs()
+        h = _new_highs(self.verbose)
         # verbose: HiGHS's log of the one big MILP, on stderr (stdout stays for results)
         log = self.verbose and model.aggregate != "covering"
         h.setOptionValue("output_flag", log)
@@ -174,7 +179,7 @@ class _Run:
         stop = self.stop
 
         def interrupt(event) -> None:
-            if stop is not None and stop.requested:
+            if stop.requested:
                 event.interrupt()
 
         h.cbMipInterrupt.subscribe(interrupt)
@@ -184,8 +189,23 @@ class _Run:
         return h
 
     def run_highs(self, h) -> tuple[Any, Any]:
+        """Run HiGHS in a thread while this one watches the stop rule: HiGHS's interrupt
+        callbacks then see the request, and where HiGHS does not answer within HIGHS_GRACE_S
+        (its presolve polls no callback) it is left behind and the incumbent returned."""
+        import highspy
+
         t = time.perf_counter()
-        h.run()
+        worker = threading.Thread(target=h.run, daemon=True)
+        worker.start()
+        asked = None
+        while worker.is_alive():
+            worker.join(WATCH_S)
+            if asked is None and self.stop.check() is not None:
+                asked = time.perf_counter()
+            if asked is not None and worker.is_alive() and time.perf_counter() - asked > HIGHS_GRACE_S:
+                self.details["note"] = "HiGHS did not answer the stop request in time and was left behind"
+                self.details["solve_s"] += time.perf_counter() - t
+                return highspy.HighsModelStatus.kInterrupt, _NO_INFO
         self.details["solve_s"] += time.perf_counter() - t
         self.details["solves"] += 1
         info = h.getInfo()
@@ -206,7 +226,7 @@ class _Run:
         st = model_mod.structure(self.instance, self.kind)
         cand = st.candidates()
         top = int(np.searchsorted(cand, st.best_worth()[1:].min(), side="right")) - 1
-        lo = self._feasible_index(cand, self.worth(self.best_value))
+        lo = self._feasible_index(cand, self.worth(self.incumbent.value))
         hi = top  # cand[hi + 1:] are proven infeasible (or exceed the relaxation)
         self.details["build_s"] += time.perf_counter() - t
         self.details["candidates"] = int(top - max(lo, 0) + 1)
@@ -214,7 +234,7 @@ class _Run:
         status = "optimal"
         while lo < hi:
             if self.out_of_time():
-                status = "time_limit"
+                status = self.stop.reason or TIME_LIMIT
                 break
             mid = (lo + hi + 1) // 2
             t = time.perf_counter()
@@ -228,14 +248,14 @@ class _Run:
             ms, info = self.run_highs(h)
             if self.has_solution(h, info):
                 idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
-                value = self.offer_plan(idx, sched, source="covering model")
+                value = self.incumbent.offer(idx, sched, source="covering model")
                 lo = max(mid, self._feasible_index(cand, self.worth(value)))
                 steps.append("feasible")
             elif ms == highspy.HighsModelStatus.kInfeasible:
                 hi = mid - 1
                 steps.append("infeasible")
             elif ms in _STOPPED:  # time limit or interrupt before a decision
-                status = "time_limit"
+                status = self.stop.reason or TIME_LIMIT
                 steps.append(h.modelStatusToString(ms))
                 break
             else:
@@ -243,7 +263,7 @@ class _Run:
             if self.verbose:
                 print(
                     f"milp {self.objective}: threshold {self.worth(float(cand[mid])):.6g} {steps[-1]}; "
-                    f"best {self.best_value:.6g}, bound {self.worth(float(cand[hi])):.6g}",
+                    f"best {self.incumbent.value:.6g}, bound {self.worth(float(cand[hi])):.6g}",
                     file=sys.stderr, flush=True,
                 )
         self.details["bisection"] = steps
@@ -260,18 +280,18 @@ class _Run:
         import highspy
 
         t = time.perf_counter()
-        warm_worth = self.worth(self.best_value)
+        warm_worth = self.worth(self.incumbent.value)
         scale = warm_worth if self.kind == "voi" and warm_worth > 0 else None
         model = model_mod.build(self.instance, self.objective, scale=scale)
         self.details["scale"] = model.scale
         self.details["build_s"] += time.perf_counter() - t
         h = self.highs(model)
-        h.setSolution(_solution(model, *self.best_plan))
+        h.setSolution(_solution(model, self.incumbent.idx, self.incumbent.sched))
         ms, info = self.run_highs(h)
         K = highspy.HighsModelStatus
         if self.has_solution(h, info):
             idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
-            self.offer_plan(idx, sched, source="HiGHS")
+            self.incumbent.offer(idx, sched, source="HiGHS")
         self.details["highs_status"] = h.modelStatusToString(ms)
         self.details["mip_gap"] = float(info.mip_gap) if math.isfinite(info.mip_gap) else None
         bound = self._dual_bound_worth(model, info)
@@ -279,7 +299,7 @@ class _Run:
             status = "optimal"
             bound = self._patch(model, bound)
         elif ms in _STOPPED:
-            status = "time_limit"
+            status = self.stop.reason or TIME_LIMIT
         else:  # keep the best plan, claim nothing
             self.details["note"] = f"HiGHS ended with {self.details['highs_status']!r}"
             return "feasible", None
@@ -305,7 +325,7 @@ class _Run:
         import highspy
 
         for _ in range(3):
-            value = self.worth(self.best_value)
+            value = self.worth(self.incumbent.value)
             if bound is None or bound - value <= PATCH_RTOL * max(abs(bound), abs(value)):
                 return bound
             if self.out_of_time():
@@ -320,14 +340,39 @@ class _Run:
             self.details["patched"] = self.details.get("patched", 0) + 1
             if self.has_solution(h, info):
                 idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
-                self.offer_plan(idx, sched, source="HiGHS (patch)")
+                self.incumbent.offer(idx, sched, source="HiGHS (patch)")
             if ms == highspy.HighsModelStatus.kInfeasible:
                 return min(bound, value if self.kind == "aoi" else cutoff)
             if ms != highspy.HighsModelStatus.kOptimal:
                 return bound
             new = self._dual_bound_worth(model, info)
-            bound = bound if new is None else min(bound, max(new, self.worth(self.best_value)))
+            bound = bound if new is None else min(bound, max(new, self.worth(self.incumbent.value)))
         return bound
+
+
+WATCH_S = 0.05  # how often the stop rule is checked while HiGHS runs
+HIGHS_GRACE_S = 1.0  # how long HiGHS may take to honour a stop request
+_NO_INFO = SimpleNamespace(mip_dual_bound=math.inf, mip_gap=math.inf, primal_solution_status=0, mip_node_count=0)
+
+
+def _new_highs(verbose: bool):
+    """A Highs object; HiGHS prints its banner on stdout when the first one is made, whatever
+    its options, so unless ``verbose`` that one construction writes to /dev/null."""
+    import os
+
+    import highspy
+
+    if verbose:
+        return highspy.Highs()
+    sys.stdout.flush()
+    saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        return highspy.Highs()
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
 
 
 def _abs_slack(model: model_mod.Model) -> float:

@@ -2,7 +2,8 @@
 
 A dict keyed by state tuples holds one list of Q-values per state (its feasible actions, in the
 order of voiopt/models/mdp.py); random numbers are the same splitmix64 stream as the kernel's.
-Used by tests/solvers/test_qlearning.py and benchmarks/qlearning_speed.py.
+Used by tests/solvers/test_qlearning.py and benchmarks/qlearning_speed.py: the readable
+statement of what the kernels compute.
 """
 
 from __future__ import annotations

@@ -13,13 +13,15 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from voiopt import instance
-from voiopt.generate import CASE_STUDY_PLAN, case_study
-from voiopt.result import Plan, Result
-from voiopt.simulate import OBJECTIVES, sense
+from voiopt import instance, objectives
+from voiopt._files import safe_name
+from voiopt.generate import case_study, case_study_plan
+from voiopt.objectives import DEFAULT as OBJECTIVE
+from voiopt.objectives import OBJECTIVES
+from voiopt.result import Result
 from voiopt.solvers import RANDOMISED, solve
+from voiopt.stop import Interrupted, watch
 
-OBJECTIVE = "mean-min-voi"
 SEEDS = (0, 1, 2)
 RUNS = [  # (label, method, what it is, options)
     ("dp", "dp", "exact label-setting programme: the proven optimum", {}),
@@ -33,10 +35,6 @@ RUNS = [  # (label, method, what it is, options)
 ]
 
 
-def _gap(best_bound: float | None, value: float) -> float | None:
-    return None if best_bound is None else abs(best_bound - value) / abs(best_bound)
-
-
 def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo") -> int:
     if not console.is_terminal:  # rich assumes 80 columns when piped; the table needs more
         console = Console(width=max(console.width, 120), highlight=False)
@@ -46,6 +44,19 @@ def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo
         f"{inst.width:g} x {inst.height:g} m area, start {list(inst.start)}; objective {OBJECTIVE}"
     )
     results: list[tuple[str, Result]] = []  # (row label, result)
+    with watch() as stop:  # Ctrl-C stops the demo as a whole, not one solve after another
+        _run_all(inst, console, Path(out_dir), results, stop)
+    if stop.requested:
+        raise Interrupted(stop.signal)
+    if not path:
+        example = Result.from_plan(inst, "example", OBJECTIVE, case_study_plan(), status="feasible")
+        results.append(("example", example))
+        console.print("example: the hand-made plan shipped in instances/case-study.plan.json", style="dim")
+    _report(inst, console, Path(out_dir), results)
+    return 0
+
+
+def _run_all(inst, console: Console, out_dir: Path, results: list[tuple[str, Result]], stop) -> None:
     dp_plan = None
     for label, method, what, options in RUNS:
         opts = dict(options)
@@ -55,6 +66,8 @@ def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo
         console.print(f"{label}: {what}" + (f"; seeds {SEEDS[0]}-{SEEDS[-1]}" if seeds[0] is not None else ""),
                       style="dim")
         for seed in seeds:
+            if stop.requested:
+                return
             if seed is not None:
                 opts["seed"] = seed
             # progress bars for the long trainings; the solvers' own logs would drown the table
@@ -62,33 +75,31 @@ def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo
             if method == "dp":
                 dp_plan = r.plan
             stem = label.replace(" ", "-").replace("/", "-per-")
-            r.save(Path(out_dir) / f"{inst.name}__{stem}{'' if seed is None else f'__seed{seed}'}.json")
+            r.save(out_dir / f"{safe_name(inst.name)}__{stem}{'' if seed is None else f'__seed{seed}'}.json")
             results.append((label if seed is None else f"{label} (seed {seed})", r))
-    if not path:
-        example = Result.from_plan(inst, "example", OBJECTIVE, Plan.from_dict(CASE_STUDY_PLAN), status="feasible")
-        results.append(("example", example))
-        console.print("example: the hand-made plan shipped in instances/case-study.plan.json", style="dim")
 
-    bounds = [r.bound for _, r in results if r.bound is not None]
-    best_bound = (min if sense(OBJECTIVE) == "max" else max)(bounds) if bounds else None
+
+def _report(inst, console: Console, out_dir: Path, results: list[tuple[str, Result]]) -> None:
+    best_bound = objectives.tightest(OBJECTIVE, (r.bound for _, r in results))
     table = Table(title=f"{inst.name}: every value simulated from the plan; gap = proven distance to the optimum")
     for col in ("plan", "status", *OBJECTIVES, "gap", "time"):
         table.add_column(col, justify="left" if col in ("plan", "status") else "right")
     for label, r in results:
-        gap = _gap(best_bound, r.value)
+        gap = objectives.gap(r.value, best_bound)
         table.add_row(label, r.status, *(f"{r.metrics[m]:.6g}" for m in OBJECTIVES),
                       "-" if gap is None else f"{100 * gap:.2f} %", f"{r.runtime_s:.2f} s")
     console.print(table)
     if best_bound:
         for label, reading in (("qlearning", "V in bit/s, penalty 100: the paper as written"),
                                ("qlearning bit/s/Hz", "V / B, penalty 100")):
-            runs = [r for row, r in results if row.startswith(f"{label} (seed")]
-            gaps = [_gap(best_bound, r.value) for r in runs]
+            runs = [r for row, r in results if row.startswith(f"{label} (seed") and r.status in ("optimal", "feasible")]
+            if not runs:
+                continue
+            gaps = [objectives.gap(r.value, best_bound) for r in runs]
             console.print(
                 f"The paper's Q-learning ({reading}), seeds {SEEDS[0]}-{SEEDS[-1]}: mean {statistics.fmean(r.value for r in runs):.6g} "
                 f"bit/s of a proven optimum of {best_bound:.6g} bit/s, a certified gap of "
                 f"{100 * statistics.fmean(gaps):.1f} % on average (min {100 * min(gaps):.1f} %, max {100 * max(gaps):.1f} %)."
             )
     console.print("(times exclude numba's one-off compilation, recorded as solver.startup_s)", style="dim")
-    console.print(f"results written to {out_dir}/ (plot one with: voiopt plot {out_dir}/{inst.name}__dp.json -o dp.png)")
-    return 0
+    console.print(f"results written to {out_dir}/ (plot one with: voiopt plot {out_dir}/{safe_name(inst.name)}__dp.json -o dp.png)")

@@ -1,0 +1,267 @@
+"""docs/reliability.md, finding by finding, through the command line as a user runs it: real
+subprocesses, real signals, real files."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import voiopt
+from voiopt.experiments import runner
+from voiopt.generate import case_study_plan, generate_set, write_set
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE = str(ROOT / "instances" / "case-study.json")
+
+
+def voiopt_cmd(*args: str, **kw) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "voiopt", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=kw.pop("cwd", ROOT), **kw)
+
+
+def run(*args: str, timeout: float = 120, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "voiopt", *args], capture_output=True, text=True,
+                          timeout=timeout, cwd=kw.pop("cwd", ROOT), **kw)
+
+
+def wait_until_watching(proc: subprocess.Popen, timeout: float = 60) -> None:
+    """Until the process catches SIGTERM: its stop rule is installed (Linux /proc)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            status = Path(f"/proc/{proc.pid}/status").read_text()
+        except FileNotFoundError:
+            break
+        caught = int(next(line for line in status.splitlines() if line.startswith("SigCgt:")).split()[1], 16)
+        if caught & (1 << (signal.SIGTERM - 1)):
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"the process never installed its stop rule: {proc.communicate(timeout=5)}")
+
+
+def one_line(stderr: str) -> str:
+    lines = [line for line in stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in stderr, stderr
+    return lines[0]
+
+
+@pytest.fixture(scope="module", autouse=True)
+def compiled_kernels():
+    """Compile (or load) numba's kernels once here, so that the subprocesses below time their
+    work, not a cold compilation (minutes on a fresh clone's first run)."""
+    tiny = voiopt.generate(2, 3, width=1, height=1, seed=0)
+    for method in ("dp", "qlearning"):
+        voiopt.solve(tiny, method=method, episodes=10) if method == "qlearning" else voiopt.solve(tiny, method=method)
+
+
+@pytest.fixture(scope="module")
+def nets(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("nets")
+    write_set(generate_set(2, seed=3, n_sensors=3, horizon=10, width=3, height=3), folder)
+    return folder
+
+
+# ------------------------------------------------------------------------------ stopping
+
+
+@pytest.mark.parametrize("sig, code, workers", [(signal.SIGINT, 130, "1"), (signal.SIGTERM, 143, "2")])
+def test_a_signal_stops_the_whole_sweep_keeps_what_finished_and_stores_no_interrupted_run(
+        tmp_path, nets, sig, code, workers):
+    out = tmp_path / "report"
+    proc = voiopt_cmd("gap-report", str(nets), "--methods", "greedy,qlearning", "--episodes", "1e9",
+                      "--seeds", "1", "--workers", workers, "-o", str(out), "--quiet")
+    wait_until_watching(proc)
+    end = time.monotonic() + 60
+    while not list(out.glob("results/*greedy*.json")) and time.monotonic() < end:
+        time.sleep(0.1)
+    time.sleep(1.0)  # a Q-learning run is under way
+    t0 = time.monotonic()
+    proc.send_signal(sig)
+    _, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == code and time.monotonic() - t0 < 10
+    assert "interrupted" in one_line(stderr)
+    stored = sorted(p.name for p in (out / "results").glob("*.json"))
+    assert stored and all("greedy" in name for name in stored)  # no Q-learning run stored
+    assert not (out / "gaps.csv").exists()  # the report is not made from a partial sweep
+
+
+def test_a_dead_worker_ends_the_sweep_with_one_line(tmp_path, nets):
+    out = tmp_path / "report"
+    proc = voiopt_cmd("gap-report", str(nets), "--methods", "qlearning", "--episodes", "1e9", "--seeds", "1",
+                      "--workers", "2", "-o", str(out), "--quiet")
+    wait_until_watching(proc)
+    end = time.monotonic() + 60
+    workers = []
+    while not workers and time.monotonic() < end:
+        children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
+        workers = [int(c) for c in children]
+        time.sleep(0.2)
+    time.sleep(1.0)
+    os.kill(workers[0], signal.SIGKILL)
+    _, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == 1 and "a worker process died" in one_line(stderr)
+
+
+def test_a_stored_interrupted_run_is_not_done(tmp_path):
+    r = voiopt.solve(voiopt.case_study(), method="greedy")
+    r.status = "interrupted"
+    r.save(tmp_path / "r.json")
+    assert not runner.is_done(tmp_path / "r.json")
+    r.status = "time_limit"
+    r.save(tmp_path / "r.json")
+    assert runner.is_done(tmp_path / "r.json")
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_an_interrupted_solve_exits_non_zero_and_keeps_its_best_plan(tmp_path, sig, code):
+    out = tmp_path / "r.json"
+    proc = voiopt_cmd("solve", CASE, "--method", "qlearning", "--episodes", "1e9", "-o", str(out), "--quiet")
+    wait_until_watching(proc)
+    time.sleep(0.5)
+    proc.send_signal(sig)
+    _, stderr = proc.communicate(timeout=20)
+    assert proc.returncode == code, stderr
+    assert "best plan so far is kept" in one_line(stderr)
+    result = voiopt.load_result(out)
+    assert result.status == "interrupted" and result.value == voiopt.evaluate(voiopt.case_study(), result.plan)[result.objective]
+
+
+def test_a_second_ctrl_c_exits_at_once():
+    proc = voiopt_cmd("solve", CASE, "--method", "qlearning", "--episodes", "1e9", "--quiet")
+    wait_until_watching(proc)
+    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signal.SIGINT)
+    t0 = time.monotonic()
+    proc.communicate(timeout=20)
+    assert proc.returncode == 130 and time.monotonic() - t0 < 5
+
+
+# -------------------------------------------------------------------------------- limits
+
+
+def test_time_limits_hold_at_many_sensors(tmp_path):
+    inst = tmp_path / "n200.json"
+    voiopt.save(voiopt.generate(200, 30, seed=1), inst)
+    for method in ("dp", "greedy"):
+        out = tmp_path / f"{method}.json"
+        done = run("solve", str(inst), "--method", method, "--time-limit", "3", "-o", str(out), "--quiet", timeout=60)
+        assert done.returncode == 0, done.stderr
+        r = voiopt.load_result(out)
+        assert r.status == "time_limit" and r.runtime_s <= 3 * 1.1 + 1, (method, r.runtime_s)
+        assert r.value == voiopt.evaluate(voiopt.load(inst), r.plan)[r.objective]
+
+
+@pytest.mark.parametrize("method", ["dp", "qlearning", "milp"])
+def test_work_that_cannot_fit_the_memory_limit_is_refused_before_it_starts(tmp_path, method):
+    inst = tmp_path / "long.json"
+    voiopt.save(voiopt.generate(4, 100_000, width=30, height=30, seed=1), inst)
+    done = run("solve", str(inst), "--method", method, "--memory-limit", "1", timeout=60)
+    assert done.returncode == 2
+    assert "--memory-limit:" in one_line(done.stderr) and "over the limit of 1 GB" in done.stderr
+
+
+def test_a_memory_limit_stop_is_reported_as_such(tmp_path):
+    nets = tmp_path / "nets"
+    write_set(generate_set(2, seed=0, n_sensors=4, horizon=30), nets)  # paper scale: tables of GBs at 1e6
+    out = tmp_path / "report"
+    done = run("gap-report", str(nets), "--methods", "aoi-qlearning", "--episodes", "1e6", "--seeds", "1",
+               "--memory-limit", "0.02", "-o", str(out), "--quiet", timeout=120)
+    assert done.returncode == 0, done.stderr
+    results = [voiopt.load_result(p) for p in (out / "results").glob("*.json")]
+    assert {r.status for r in results} == {"memory_limit"}
+    assert all("memory limit of 0.02 GB" in r.solver["stopped"] for r in results)
+    summary = (out / "summary.md").read_text()
+    assert "| 2 memory_limit |" in summary and "memory limit of 0.02 GB reached" in summary
+
+
+# -------------------------------------------------------------------------------- output
+
+
+@pytest.mark.parametrize("where, message", [
+    ("a-dir", "is a directory"),
+    ("missing/r.json", "does not exist"),
+])
+def test_bad_output_paths_fail_before_any_work(tmp_path, where, message):
+    (tmp_path / "a-dir").mkdir()
+    t0 = time.monotonic()
+    done = run("solve", CASE, "--method", "qlearning", "--episodes", "1e8", "-o", str(tmp_path / where))
+    assert done.returncode == 2 and message in one_line(done.stderr) and str(tmp_path / where) in done.stderr
+    assert time.monotonic() - t0 < 20  # no 1e8-episode training first
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write anywhere")
+def test_an_unwritable_output_fails_before_any_work(tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    done = run("solve", CASE, "--method", "greedy", "-o", str(ro / "r.json"))
+    assert done.returncode == 2 and "no permission" in one_line(done.stderr)
+
+
+def test_files_get_the_umask_permissions(tmp_path):
+    out = tmp_path / "r.json"
+    done = run("solve", CASE, "--method", "greedy", "-o", str(out), "--quiet",
+               preexec_fn=lambda: os.umask(0o022))
+    assert done.returncode == 0
+    assert stat.S_IMODE(out.stat().st_mode) == 0o644
+
+
+def test_instance_names_never_become_paths_outside_the_report(tmp_path):
+    nets = tmp_path / "nets"
+    nets.mkdir()
+    for k, name in enumerate(["../../escape", "a/b", "ok"]):
+        inst = voiopt.generate(2, 4, width=2, height=2, seed=k, name=name)
+        (nets / f"{k}.json").write_text(json.dumps(inst.to_dict()))
+    out = tmp_path / "deep" / "report"
+    out.parent.mkdir()
+    done = run("gap-report", str(nets), "--methods", "greedy", "-o", str(out), "--quiet")
+    assert done.returncode == 0, done.stderr
+    written = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.json") if "nets" not in p.parts)
+    assert all(w.startswith("deep/report/") for w in written) and len(written) == 4  # 3 results, run.json
+    assert any(w.startswith("deep/report/results/ok__greedy") for w in written)
+
+
+def test_a_failed_gap_report_does_not_lock_its_folder_and_non_instances_are_skipped(tmp_path, nets):
+    folder = tmp_path / "nets"
+    folder.mkdir()
+    for p in nets.glob("*.json"):
+        (folder / p.name).write_text(p.read_text())
+    bad = json.loads(next(folder.glob("*.json")).read_text())
+    bad["sensors"][0]["rho"] = 1.5
+    (folder / "zz-typo.json").write_text(json.dumps(bad))
+    (folder / "a-plan.json").write_text(json.dumps(case_study_plan().to_dict()))
+    out = tmp_path / "report"
+    done = run("gap-report", str(folder), "--methods", "greedy", "-o", str(out), "--quiet")
+    assert done.returncode == 2 and "zz-typo.json: sensors[0].rho" in one_line(done.stderr)
+    assert not (out / "run.json").exists()
+    (folder / "zz-typo.json").unlink()
+    done = run("gap-report", str(folder), "--methods", "greedy", "-o", str(out), "--quiet", "--seeds", "2")
+    assert done.returncode == 0 and "skipped" in done.stderr and "a-plan.json" in done.stderr
+    assert "skipped" in (out / "summary.md").read_text()
+    done = run("gap-report", str(ROOT / "instances"), "--methods", "greedy", "-o", str(tmp_path / "r2"), "--quiet")
+    assert done.returncode == 0 and "case-study.plan.json: not an instance" in done.stderr
+
+
+@pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".pdf", b"%PDF"), (".svg", b"<?xml")])
+def test_plots_follow_the_suffix(tmp_path, suffix, magic):
+    r = voiopt.solve(voiopt.case_study(), method="greedy")
+    r.save(tmp_path / "r.json")
+    out = tmp_path / f"plot{suffix}"
+    assert run("plot", str(tmp_path / "r.json"), "-o", str(out)).returncode == 0
+    assert out.read_bytes().startswith(magic)
+
+
+def test_an_unknown_plot_suffix_is_rejected(tmp_path):
+    r = voiopt.solve(voiopt.case_study(), method="greedy")
+    r.save(tmp_path / "r.json")
+    done = run("plot", str(tmp_path / "r.json"), "-o", str(tmp_path / "x.jpg"))
+    assert done.returncode == 2 and ".png, .pdf or .svg" in one_line(done.stderr)
+    assert not (tmp_path / "x.jpg").exists()

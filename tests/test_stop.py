@@ -1,0 +1,41 @@
+"""The one stop rule: limits, signals, nesting."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+
+from voiopt.stop import INTERRUPTED, MEMORY_LIMIT, TIME_LIMIT, Interrupted, Stop, watch
+
+
+def test_limits_give_their_own_reasons():
+    stop = Stop(time_limit=0.05, memory_limit=1.0)
+    assert stop.check(memory_used=0.5e9) is None
+    assert stop.check(memory_used=2e9) == MEMORY_LIMIT and "memory limit of 1 GB" in stop.describe()
+    stop = Stop(time_limit=0.05)
+    time.sleep(0.06)
+    assert stop.check() == TIME_LIMIT and stop.remaining() < 0
+
+
+def test_a_signal_stops_every_open_watch_and_one_asked_before_a_watch_opens_holds_inside_it():
+    with watch() as outer:
+        with watch() as inner:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.01)
+            assert inner.reason == outer.reason == INTERRUPTED and inner.signal == signal.SIGTERM
+        with watch() as later:  # e.g. the next solve of a sweep, or one still starting up
+            assert later.requested and later.signal == signal.SIGTERM
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored
+
+
+def test_a_second_signal_raises_at_once():
+    with pytest.raises(Interrupted) as e, watch():
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+    assert e.value.exit_code == 130
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -1,0 +1,202 @@
+"""Gap reports: every method on every network (randomised ones over several seeds), each
+plan's proven gap to the tightest bound of its network, as gaps.csv, summary.md and gaps.png."""
+
+from __future__ import annotations
+
+import os
+import statistics
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from voiopt import objectives
+from voiopt._files import atomic_write, check_output_dir, write_csv
+from voiopt.experiments.runner import (
+    Task,
+    check_manifest,
+    check_methods,
+    check_seeds,
+    check_workers,
+    load_instances,
+    method_tasks,
+    run_tasks,
+)
+from voiopt.instance import Instance
+from voiopt.models.mdp import check_reward_units
+from voiopt.objectives import check_objective
+from voiopt.plots import plot_gaps
+from voiopt.result import Result, load_result
+from voiopt.solvers import RANDOMISED
+from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
+
+GAP_COLUMNS = ["instance", "method", "seed", "objective", "status", "value", "bound", "best_value", "best_bound",
+               "gap", "runtime_s", "cause"]
+NORMAL = ("optimal", "feasible")  # every other status is counted and explained in summary.md
+
+
+def cause(r: Result) -> str:
+    """Why a run ended as it did, when it did not end normally: the solver's own words."""
+    if r.status in NORMAL:
+        return ""
+    return str(r.solver.get("error") or r.solver.get("stopped") or r.solver.get("note") or r.status)
+
+
+def plan_tasks(
+    instances: Sequence[tuple[Path, Instance]], methods: Sequence[str], objective: str, out_dir: Path,
+    seed: int = 0, seeds: int = 1, **options: Any,
+) -> list[Task]:
+    tasks = []
+    for p, inst in instances:
+        tasks += method_tasks(inst, p, methods, objective, out_dir / "results", seed, seeds, **options)
+    return tasks
+
+
+def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | None] | None = None) -> list[dict[str, Any]]:
+    """One row per result, with the best plan value and tightest proven bound of its instance
+    (over every method and seed); ``seeds`` gives each result's seed (None: deterministic)."""
+    seeds = list(seeds) if seeds is not None else [None] * len(results)
+    by_instance: dict[str, list[Result]] = {}
+    for r in results:
+        by_instance.setdefault(r.instance, []).append(r)
+    rows = []
+    for r, seed in zip(results, seeds, strict=True):
+        group = by_instance[r.instance]
+        best_value = objectives.best(objective, (g.value for g in group))
+        best_bound = objectives.tightest(objective, (g.bound for g in group))
+        gap = objectives.gap(r.value, best_bound)
+        rows.append({
+            "instance": r.instance, "method": r.method, "seed": seed, "objective": r.objective, "status": r.status,
+            "value": r.value, "bound": r.bound, "best_value": best_value, "best_bound": best_bound,
+            "gap": gap, "runtime_s": r.runtime_s, "cause": cause(r),
+        })
+    return rows
+
+
+def summarise(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> list[dict[str, Any]]:
+    """Per method: gaps over every run (seeds and networks), as mean, min, max and median."""
+    out = []
+    for m in methods:
+        mine = [r for r in rows if r["method"] == m]
+        gaps = [r["gap"] for r in mine if r["gap"] is not None]
+        times = [r["runtime_s"] for r in mine if r["status"] != "error"]
+        seeds = sorted({r["seed"] for r in mine if r.get("seed") is not None})
+        out.append({
+            "method": m,
+            "instances": len({r["instance"] for r in mine}),
+            "runs": len(mine),
+            "seeds": seeds,
+            "optimal": sum(r["status"] == "optimal" for r in mine),
+            "errors": sum(r["status"] == "error" for r in mine),
+            "other": _count_statuses(r["status"] for r in mine if r["status"] not in NORMAL),
+            "median_gap": statistics.median(gaps) if gaps else None,
+            "mean_gap": statistics.fmean(gaps) if gaps else None,
+            "min_gap": min(gaps) if gaps else None,
+            "max_gap": max(gaps) if gaps else None,
+            "within_1pct": sum(g <= 0.01 for g in gaps),
+            "median_runtime_s": statistics.median(times) if times else None,
+        })
+    return out
+
+
+def _count_statuses(statuses) -> str:
+    counts: dict[str, int] = {}
+    for s in statuses:
+        counts[s] = counts.get(s, 0) + 1
+    return ", ".join(f"{n} {s}" for s, n in sorted(counts.items())) or "0"
+
+
+def _pct(v: float | None) -> str:
+    return "-" if v is None else f"{100 * v:.3g} %"
+
+
+def _seed_text(seeds: Sequence[int]) -> str:
+    if not seeds:
+        return "-"
+    if seeds == list(range(seeds[0], seeds[-1] + 1)) and len(seeds) > 2:
+        return f"{seeds[0]}-{seeds[-1]}"
+    return ", ".join(map(str, seeds))
+
+
+def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instances: int,
+                     reward_units: str | None = None, rows: Sequence[dict[str, Any]] = (),
+                     notes: Sequence[str] = ()) -> str:
+    lines = [
+        f"# Gap report: {objective}",
+        "",
+        f"{n_instances} instance(s). The gap of a plan is its relative distance to the tightest "
+        "proven bound over all methods for that instance (a proven optimality gap; exact when "
+        "an exact method proved optimality). Every value is simulated from the plan. "
+        "A randomised method runs once per seed; its mean, min and max gap are over every seed "
+        "and network (one seed is an anecdote).",
+    ]
+    if reward_units is not None:
+        lines.append(f"Q-learning reward reading: V in {reward_units}, idle penalty 100 (MODEL.md section 7).")
+    lines += [
+        "",
+        "| method | instances | seeds | runs | optimal | errors | not finished normally | mean gap | min gap | max gap | median gap | within 1 % | median runtime |",
+        "|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for s in summary:
+        rt = "-" if s["median_runtime_s"] is None else f"{s['median_runtime_s']:.3g} s"
+        lines.append(
+            f"| {s['method']} | {s['instances']} | {_seed_text(s['seeds'])} | {s['runs']} | {s['optimal']} | "
+            f"{s['errors']} | {s['other']} | {_pct(s['mean_gap'])} | {_pct(s['min_gap'])} | {_pct(s['max_gap'])} | "
+            f"{_pct(s['median_gap'])} | {s['within_1pct']}/{s['runs']} | {rt} |"
+        )
+    odd = [r for r in rows if r["status"] not in NORMAL]
+    if odd:
+        lines += ["", "Runs that did not finish normally (their gap still counts where they returned a plan):", ""]
+        lines += [f"- {r['instance']}, {r['method']}" + ("" if r.get("seed") is None else f", seed {r['seed']}")
+                  + f": {r['status']}: {r['cause']}" for r in odd]
+    if notes:
+        lines += ["", *[f"- {n}" for n in notes]]
+    lines += ["", "![gap distributions](gaps.png)", ""]
+    return "\n".join(lines)
+
+
+def gap_report(
+    instances: Sequence[str | os.PathLike],
+    methods: Sequence[str],
+    objective: str,
+    out_dir: str | os.PathLike,
+    *,
+    time_limit: float | None = None,
+    memory_limit: float = DEFAULT_MEMORY_GB,
+    episodes: int | None = None,
+    seed: int = 0,
+    seeds: int = 3,
+    reward_units: str = "bit/s",
+    workers: int = 1,
+    dask_scheduler: str | None = None,
+    progress: bool = False,
+    notes: list[str] | None = None,
+) -> list[dict[str, Any]]:
+    """Run every (instance, method, seed), then write gaps.csv, summary.md and gaps.png.
+    Randomised methods run with seeds seed .. seed + seeds - 1; the others once. Everything
+    is checked before any work, and run.json is written only then. ``notes`` collects lines
+    for the user (files skipped)."""
+    check_objective(objective)
+    methods = check_methods(methods)
+    check_seeds(seeds)
+    check_reward_units(reward_units)
+    check_limits(time_limit, memory_limit)
+    check_workers(workers)
+    out = check_output_dir(out_dir)
+    notes = [] if notes is None else notes
+    instances_found = load_instances(instances, notes)
+    options = dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
+                   threads=1)
+    tasks = plan_tasks(instances_found, methods, objective, out, seed=seed, seeds=seeds, **options)
+    check_manifest(out, {"command": "gap-report", "objective": objective, "seed": seed, "seeds": seeds, **options})
+    run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="runs")
+    results = [load_result(t.out_path) for t in tasks]
+    rows = gap_rows(results, objective, [t.seed for t in tasks])
+    write_csv(out / "gaps.csv", rows, GAP_COLUMNS)
+    n_instances = len({t.instance_name for t in tasks})
+    summary = summarise(rows, methods)
+    uses_q = any(m in RANDOMISED for m in methods)
+    md = summary_markdown(summary, objective, n_instances, reward_units if uses_q else None, rows, notes)
+    with atomic_write(out / "summary.md") as f:
+        f.write(md)
+    plot_gaps(rows, methods, out / "gaps.png", objective)
+    return rows

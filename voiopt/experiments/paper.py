@@ -1,0 +1,208 @@
+"""The paper's figures with the proven optimum added (MODEL.md section 8).
+
+Fig. 3: case-study trajectories; Fig. 4: average VoI over time in the case study;
+Figs. 5-7: time-average minimum VoI versus power, heterogeneity and the number of nodes.
+Beside each PNG a CSV holds the numbers plotted; figures.md lists them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import statistics
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from voiopt import instance as instance_mod
+from voiopt._files import atomic_write, check_output_dir, read_csv, safe_name, write_csv
+from voiopt.errors import OptionError
+from voiopt.experiments.runner import (
+    check_manifest,
+    check_seeds,
+    check_workers,
+    method_tasks,
+    run_tasks,
+)
+from voiopt.generate import case_study, generate_set, write_set
+from voiopt.instance import Instance
+from voiopt.models.mdp import check_reward_units
+from voiopt.objectives import DEFAULT as OBJECTIVE
+from voiopt.objectives import OBJECTIVES
+from voiopt.plots import SCHEMES, case_study_figures, plot_sweep
+from voiopt.result import Result, load_result
+from voiopt.solvers import RANDOMISED
+from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
+
+
+@dataclass(frozen=True)
+class Sweep:
+    key: str  # file stem
+    title: str
+    x_label: str
+    values: tuple[float, ...]
+    log_x: bool = False
+
+    def generator_kwargs(self, v: float) -> dict[str, Any]:
+        base = dict(n_sensors=4, horizon=30, rho=(0.0, 1.0), power_w=1.0)
+        if self.key == "fig5_power":
+            base["power_w"] = v
+        elif self.key == "fig6_heterogeneity":
+            base["rho"] = (0.5 - v, 0.5 + v)
+        else:
+            base["n_sensors"] = int(v)
+        return base
+
+
+SWEEPS = (
+    Sweep("fig5_power", "time-average min VoI vs transmit power (N = 4, rho ~ U(0, 1), T = 30)", "transmit power P (W)", (1e-4, 1e-3, 1e-2, 1e-1, 1.0), log_x=True),
+    Sweep("fig6_heterogeneity", "time-average min VoI vs heterogeneity (rho ~ U(0.5 - drho, 0.5 + drho), N = 4, P = 1 W, T = 30)", "drho", (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)),
+    Sweep("fig7_nodes", "time-average min VoI vs number of nodes (rho ~ U(0, 1), P = 1 W, T = 30)", "number of nodes N", (2, 3, 4, 5, 6, 7, 8)),
+)
+
+
+def _sweep_instances(sweep: Sweep, networks: int, seed: int, out: Path) -> dict[float, list[tuple[Path, Instance]]]:
+    """The networks of each sweep value, written once (for the record; the runs take them from
+    memory).
+
+    Every value uses the same seed (common random numbers): along the power and drho sweeps
+    network k keeps its positions, start and uniform draws, and only the swept parameter
+    changes, so the curves show the parameter's effect rather than network-to-network noise."""
+    paths = {}
+    for v in sweep.values:
+        folder = out / "instances" / sweep.key / f"{v:g}"
+        insts = generate_set(networks, seed=seed, name=f"{sweep.key}-{v:g}-seed{seed}", **sweep.generator_kwargs(v))
+        paths[v] = list(zip(write_set(insts, folder), insts, strict=True))
+    return paths
+
+
+def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | None, Result]]]) -> list[dict[str, Any]]:
+    """Per sweep value and method: the mean over networks for each seed, then the mean over
+    seeds with their min and max (a deterministic method has one 'seed')."""
+    rows = []
+    for v in sweep.values:
+        for m in SCHEMES:
+            runs = results[(v, m)]
+            by_seed: dict[int | None, list[float]] = {}
+            for seed, r in runs:
+                if r.value is not None:
+                    by_seed.setdefault(seed, []).append(r.value)
+            seed_means = [statistics.fmean(vals) for vals in by_seed.values()]
+            per_network = [r.value for _, r in runs if r.value is not None]
+            sd = statistics.stdev(per_network) if len(per_network) > 1 else 0.0
+            bounds = [r.bound if r.bound is not None else math.nan for _, r in runs]
+            n_networks = len({r.instance for _, r in runs})
+            rows.append({
+                "x": v, "method": m, "networks": n_networks, "seeds": len(by_seed) if m in RANDOMISED else "",
+                "mean": statistics.fmean(seed_means) if seed_means else None,
+                "seed_min": min(seed_means) if seed_means else None,
+                "seed_max": max(seed_means) if seed_means else None,
+                "ci95": 1.96 * sd / math.sqrt(len(per_network)) if per_network else None,
+                "mean_bound": statistics.fmean(bounds) if m == "dp" and bounds and not any(map(math.isnan, bounds)) else None,
+                "certified": sum(r.status == "optimal" for _, r in runs) if m == "dp" else None,
+                "errors": sum(r.status == "error" for _, r in runs),
+            })
+    return rows
+
+
+# --time-limit is dp's: the paper's Q-learning always runs its episodes (a wall-clock limit
+# would make the curves depend on the machine's load)
+EXACT_ONLY = {"time_limit": ["dp"]}
+
+
+def make_figures(
+    out_dir: str | os.PathLike,
+    *,
+    networks: int = 40,
+    episodes: int | None = None,
+    time_limit: float = 60.0,
+    memory_limit: float = DEFAULT_MEMORY_GB,
+    seed: int = 0,
+    seeds: int = 3,
+    reward_units: str = "bit/s",
+    workers: int = 1,
+    dask_scheduler: str | None = None,
+    progress: bool = False,
+    case_study_instance: Instance | None = None,
+) -> list[Path]:
+    """Reproduce Figs. 3-7 with the proven optimum; return the files written."""
+    if isinstance(networks, bool) or not isinstance(networks, int) or networks < 1:
+        raise OptionError(f"--networks: must be an integer >= 1, got {networks!r}")
+    check_seeds(seeds)
+    check_reward_units(reward_units)
+    check_limits(time_limit, memory_limit)
+    check_workers(workers)
+    out = check_output_dir(out_dir, "--out")
+    opts = dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
+                threads=1)
+    check_manifest(out, {"command": "figures", "networks": networks, "seed": seed, "seeds": seeds, **opts}, "--out")
+
+    # the case study (Figs. 3 and 4): the plans drawn are those of the first seed
+    inst = case_study_instance or case_study()
+    cs_path = out / "instances" / f"{safe_name(inst.name)}.json"
+    instance_mod.save(inst, cs_path)
+    cs_tasks = method_tasks(inst, cs_path, list(SCHEMES), OBJECTIVE, out / "results" / "case-study",
+                            seed, seeds, group="case study", only=EXACT_ONLY, **opts)
+    tasks = list(cs_tasks)
+    sweep_tasks: dict[str, tuple[Sweep, dict[float, list[tuple[Path, Instance]]], list]] = {}
+    for sweep in SWEEPS:
+        insts = _sweep_instances(sweep, networks, seed, out)
+        ts = [t for v in sweep.values for p, i in insts[v]
+              for t in method_tasks(i, p, list(SCHEMES), OBJECTIVE, out / "results" / sweep.key, seed, seeds,
+                                    group=f"{sweep.key} {sweep.x_label} = {v:g}", only=EXACT_ONLY, **opts)]
+        sweep_tasks[sweep.key] = (sweep, insts, ts)
+        tasks += ts
+    run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="figure runs")
+
+    written = []
+    cs_results = {t.method: load_result(t.out_path) for t in cs_tasks if t.seed in (None, seed)}
+    cs_seed_values = {m: [load_result(t.out_path).value for t in cs_tasks if t.method == m] for m in SCHEMES}
+    written += case_study_figures(inst, cs_results, out)
+    md = ["# The paper's figures, with the proven optimum", ""]
+    md += [f"Networks per setting: {networks}; Q-learning episodes: {episodes or 'paper default (1e6)'}, "
+           f"seeds {seed}..{seed + seeds - 1}, reward in {reward_units} with idle penalty 100 (MODEL.md section 7); "
+           f"exact method: dp with a {time_limit:g} s limit per network. "
+           "Values are means over networks of the simulated time-average minimum VoI; for Q-learning the mean "
+           "over seeds, with a band from the worst to the best seed's mean.", ""]
+    md += ["## Fig. 3 and 4: case study", "", "![fig3](fig3_case_study.png)", "", "![fig4](fig4_voi_over_time.png)", ""]
+    md += [f"Plans drawn: seed {seed}. mean-min-voi over seeds: "
+           + "; ".join(f"{SCHEMES[m]} {_spread(vals)}" for m, vals in cs_seed_values.items()), ""]
+    md += ["| scheme | status | " + " | ".join(OBJECTIVES) + " |", "|---|---|" + "---:|" * len(OBJECTIVES)]
+    for m, r in cs_results.items():
+        mt = r.metrics or {}
+        md.append(f"| {SCHEMES[m]} | {r.status} | " + " | ".join(f"{mt.get(k, float('nan')):.6g}" for k in OBJECTIVES) + " |")
+    for key, (sweep, insts, ts) in sweep_tasks.items():
+        results: dict[tuple[float, str], list[tuple[int | None, Result]]] = {}
+        for v in sweep.values:
+            stems = {i.name for _, i in insts[v]}
+            for m in SCHEMES:
+                results[(v, m)] = [(t.seed, load_result(t.out_path)) for t in ts if t.method == m and t.instance_name in stems]
+        rows = _aggregate(sweep, results)
+        csv_path = out / f"{key}.csv"
+        header = [sweep.title, f"x = {sweep.x_label}; sweep values {list(sweep.values)}; {networks} networks each; "
+                  f"seeds {seed}..{seed + seeds - 1}; Q-learning reward in {reward_units}",
+                  "mean: of the simulated mean-min-voi (bit/s) over networks, then over seeds; seed_min/seed_max: the worst and best seed's mean; "
+                  "ci95: over networks; dp rows: certified = networks proven optimal, mean_bound = mean proven upper bound"]
+        write_csv(csv_path, rows, ["x", "method", "networks", "seeds", "mean", "seed_min", "seed_max", "ci95",
+                                   "mean_bound", "certified", "errors"], header)
+        plot_sweep(sweep, rows, out / f"{key}.png")
+        written += [out / f"{key}.png", csv_path]
+        md += ["", f"## {key}", "", f"![{key}]({key}.png)", "", f"{sweep.title}. Numbers: `{key}.csv`.", "",
+               "| x | " + " | ".join(SCHEMES.values()) + " | dp certified |", "|---|" + "---:|" * (len(SCHEMES) + 1)]
+        for v in sweep.values:
+            cells = {r["method"]: r for r in read_csv(csv_path) if float(r["x"]) == v}
+            md.append(f"| {v:g} | " + " | ".join(f"{float(cells[m]['mean']):.4g}" if cells[m]["mean"] else "-" for m in SCHEMES)
+                      + f" | {cells['dp']['certified']}/{cells['dp']['networks']} |")
+    md_path = out / "figures.md"
+    with atomic_write(md_path) as f:
+        f.write("\n".join(md) + "\n")
+    return [*written, md_path]
+
+
+def _spread(values: list[float | None]) -> str:
+    vals = [v for v in values if v is not None]
+    if not vals:
+        return "-"
+    if len(vals) == 1:
+        return f"{vals[0]:.4g}"
+    return f"mean {statistics.fmean(vals):.4g} (min {min(vals):.4g}, max {max(vals):.4g})"

@@ -1,0 +1,304 @@
+"""Many runs of (instance, method, seed) in a process pool or on Dask, resumable.
+
+Each run's result is written to its own JSON file as soon as it finishes, so an interrupted
+or crashed sweep loses nothing finished, and a re-run skips what is done. ``run.json``
+records the settings of a folder so that two experiments are never mixed.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+import os
+import signal
+import time
+from collections.abc import Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from voiopt import instance as instance_mod
+from voiopt._files import read_json, safe_name, write_json_atomic
+from voiopt.errors import MissingExtraError, OptionError, VoioptError
+from voiopt.instance import Instance
+from voiopt.progress import progress_bar
+from voiopt.result import Result, load_result
+from voiopt.solvers import METHODS, RANDOMISED, solver_function
+from voiopt.stop import INTERRUPTED, Interrupted, watch
+
+
+@dataclass(frozen=True)
+class Task:
+    """One (instance, method, seed) run and where its result goes; seed is None for a
+    deterministic method. The instance travels with the task; ``group`` names the setting it
+    belongs to, for a line of progress when a whole group has finished."""
+
+    instance_path: str
+    instance_name: str
+    method: str
+    objective: str
+    options: dict[str, Any] = field(default_factory=dict)
+    out_path: str = ""
+    seed: int | None = None
+    instance: dict[str, Any] = field(default_factory=dict)
+    group: str = ""
+
+
+def load_instances(paths: Iterable[str | os.PathLike], notes: list[str] | None = None) -> list[tuple[Path, Instance]]:
+    """The instances named, and those of the ``*.json`` files of folders, in a stable order,
+    validated before any work. In a folder, a JSON file that is no instance (a plan, a result:
+    an object without ``sensors``) is skipped, with a line in ``notes``; a file that tries to
+    be one and breaks a rule is an error, as is any file named on its own."""
+    out: list[tuple[Path, Instance]] = []
+    names: dict[str, Path] = {}
+    for given in map(Path, paths):
+        if given.is_dir():
+            found = sorted(given.glob("*.json"))
+            if not found:
+                raise OptionError(f"INSTANCES: folder {given} holds no .json files")
+        elif given.is_file():
+            found = [given]
+        else:
+            raise OptionError(f"INSTANCES: {given}: no such file or folder")
+        for p in found:
+            data = read_json(p)
+            if given.is_dir() and not (isinstance(data, dict) and "sensors" in data):
+                if notes is not None:
+                    notes.append(f"skipped {p}: not an instance (no 'sensors' field)")
+                continue
+            inst = instance_mod.from_dict(data, source=str(p))
+            if inst.name in names:
+                raise OptionError(f"INSTANCES: {p} and {names[inst.name]} are both named {inst.name!r}")
+            names[inst.name] = p
+            out.append((p, inst))
+    if not out:
+        raise OptionError("INSTANCES: no instance given")
+    return out
+
+
+def check_workers(workers: int) -> int:
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise OptionError(f"--workers: must be an integer >= 1, got {workers!r}")
+    return workers
+
+
+def check_methods(methods: Sequence[str]) -> list[str]:
+    if not methods:
+        raise OptionError("--methods: give at least one method")
+    for m in methods:
+        if m not in METHODS:
+            raise OptionError(f"--methods: unknown method {m!r} (choose from {', '.join(METHODS)})")
+    if len(set(methods)) != len(methods):
+        raise OptionError(f"--methods: a method is repeated in {','.join(methods)}")
+    return list(methods)
+
+
+def check_seeds(seeds: int) -> int:
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise OptionError(f"--seeds: must be an integer >= 1, got {seeds!r}")
+    return seeds
+
+
+def method_options(method: str, **given: Any) -> dict[str, Any]:
+    """The options a method takes, from those given (None means 'not given')."""
+    params = inspect.signature(solver_function(method)).parameters
+    return {k: v for k, v in given.items() if v is not None and k in params}
+
+
+def result_path(folder: Path, instance_name: str, method: str, seed: int | None = None) -> Path:
+    suffix = "" if seed is None else f"__seed{seed}"
+    return folder / f"{safe_name(instance_name)}__{method}{suffix}.json"
+
+
+def method_tasks(
+    instance: Instance, instance_path: str | os.PathLike, methods: Sequence[str], objective: str, folder: Path,
+    seed: int = 0, seeds: int = 1, group: str = "", only: dict[str, Sequence[str]] | None = None, **options: Any,
+) -> list[Task]:
+    """The runs of one instance: one per deterministic method, and one per seed
+    seed .. seed + seeds - 1 for each randomised method (MODEL.md section 7). ``only`` keeps
+    an option for some methods alone (``{"time_limit": ["dp"]}``)."""
+    only = only or {}
+    tasks = []
+    data = instance.to_dict()
+    for m in methods:
+        run_seeds = [seed + k for k in range(seeds)] if m in RANDOMISED else [None]
+        for s in run_seeds:
+            mine = {k: v for k, v in options.items() if k not in only or m in only[k]}
+            opts = method_options(m, **mine, seed=seed if s is None else s)
+            tasks.append(Task(str(instance_path), instance.name, m, objective, opts,
+                              str(result_path(folder, instance.name, m, s)), s, data, group))
+    return tasks
+
+
+def solve_task(task: Task) -> dict[str, Any]:
+    """Solve one run and return its result as a dict (it travels back through a future, so
+    a worker needs no shared filesystem: the instance comes in the task, the caller writes).
+    A failure becomes a result with status 'error'."""
+    start = time.perf_counter()
+    try:
+        inst = instance_mod.from_dict(task.instance, source=task.instance_path)
+        result = solver_function(task.method)(inst, task.objective, **task.options)
+    except Exception as e:  # recorded, never fatal for the sweep
+        result = Result(
+            task.instance_name, task.method, task.objective, "error", None, None, None,
+            time.perf_counter() - start, None, None, {"error": f"{type(e).__name__}: {e}"},
+        )
+    return result.to_dict()
+
+
+def _store(task: Task, result: dict[str, Any]) -> bool:
+    """Write a finished run's result; an interrupted one is not finished and is not stored
+    (a resume runs it again). Returns whether it was stored."""
+    if result["status"] == INTERRUPTED:
+        return False
+    write_json_atomic(task.out_path, result)
+    return True
+
+
+def is_done(path: str | os.PathLike) -> bool:
+    """A finished run: its result file exists, reads back (a torn file cannot exist), and was
+    not interrupted (older versions stored those)."""
+    try:
+        return load_result(path).status != INTERRUPTED
+    except (VoioptError, OSError):
+        return False
+
+
+def _ignore_sigint() -> None:
+    """Pool workers leave Ctrl-C to the solver's own stop rule (and to the parent)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextmanager
+def make_executor(workers: int, dask_scheduler: str | None):
+    """A process pool, or a Dask cluster's executor (an existing one, or 'local')."""
+    check_workers(workers)
+    if dask_scheduler is None:
+        with ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint) as ex:
+            yield ex
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise MissingExtraError("distributed", "dask") from None
+    if dask_scheduler == "local":
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+    else:
+        cluster = None
+        try:
+            client = Client(dask_scheduler, timeout="10s")
+        except OSError as e:
+            raise OptionError(f"--dask-scheduler: cannot reach {dask_scheduler}: {e}") from None
+    try:
+        yield client.get_executor()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_tasks(
+    tasks: Sequence[Task], *, workers: int = 1, dask_scheduler: str | None = None,
+    progress: bool = False, description: str = "runs",
+) -> int:
+    """Run the tasks not yet done; return how many were run. Each finished result is written
+    at once. Ctrl-C or SIGTERM stops the whole sweep: what has not started is cancelled,
+    running solves stop with their best plan (not stored), and Interrupted is raised."""
+    todo = [t for t in tasks if not is_done(t.out_path)]
+    groups = _group_sizes(tasks)
+    left = {g: sum(1 for t in todo if t.group == g) for g in groups}
+    bar = progress_bar(progress)
+    with watch() as stop, bar:
+        job = bar.add_task(description, total=len(tasks), completed=len(tasks) - len(todo))
+
+        def finished(task: Task, result: dict[str, Any]) -> None:
+            if _store(task, result):
+                bar.advance(job)
+                left[task.group] -= 1
+                if progress and task.group and not left[task.group]:
+                    bar.console.print(f"finished: {task.group} ({groups[task.group]} runs)", markup=False)
+
+        if workers == 1 and dask_scheduler is None:
+            for t in todo:  # in-process: the solver sees the signal itself and stops
+                if stop.requested:
+                    break
+                finished(t, solve_task(t))
+        elif todo:
+            with make_executor(workers, dask_scheduler) as ex:
+                pending = {ex.submit(solve_task, t): t for t in todo}
+                try:
+                    while pending and not stop.requested:
+                        done, _ = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                        for f in done:
+                            finished(pending.pop(f), f.result())
+                    if stop.requested:  # running solves hand back their best plan (not stored) or are ended
+                        for f in pending:
+                            f.cancel()
+                        _signal_workers(ex, signal.SIGTERM)
+                        for f in wait(pending, timeout=STOP_GRACE_S).done:
+                            if not f.cancelled() and f.exception() is None:
+                                finished(pending[f], f.result())
+                except BrokenProcessPool:
+                    raise WorkerDied(
+                        "a worker process died (killed, or out of memory?); finished results are kept "
+                        "and a re-run resumes"
+                    ) from None
+                finally:
+                    for f in pending:
+                        f.cancel()
+                    _signal_workers(ex, signal.SIGKILL)  # nothing left to wait for: no hanging at shutdown
+    if stop.requested:
+        raise Interrupted(stop.signal)
+    return len(todo)
+
+
+STOP_GRACE_S = 5.0  # how long a stopped sweep waits for its running solves to hand back
+
+
+class WorkerDied(RuntimeError):
+    """A pool worker ended without handing back its run."""
+
+
+def _signal_workers(ex, signum: int) -> None:
+    """Signal the pool's worker processes: SIGTERM passes a stop request on (a terminal's Ctrl-C
+    reaches them anyway; a SIGTERM sent to this process alone does not); SIGKILL ends them
+    when the sweep ends, so that leaving the pool never waits on a long solve. (Dask workers
+    are not this process's children: their runs end on the cluster's side.)"""
+    for proc in list((getattr(ex, "_processes", None) or {}).values()):
+        try:
+            os.kill(proc.pid, signum)
+        except (OSError, AttributeError):
+            pass
+
+
+def _group_sizes(tasks: Sequence[Task]) -> dict[str, int]:
+    sizes: dict[str, int] = {}
+    for t in tasks:
+        sizes[t.group] = sizes.get(t.group, 0) + 1
+    return sizes
+
+
+def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--output") -> None:
+    """Resume only a run made with the same settings: ``run.json`` records them.
+
+    Without this, re-running into a folder with other options (episodes, time limit, seed,
+    objective) would silently mix results of two different experiments."""
+    path = out_dir / "run.json"
+    settings = json.loads(json.dumps(settings))  # the form it has on disk
+    if path.is_file():
+        try:
+            old = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            old = None
+        if old != settings:
+            diff = sorted(k for k in set(settings) | set(old or {}) if (old or {}).get(k) != settings.get(k))
+            raise OptionError(
+                f"{what}: {out_dir} holds a run with other settings ({', '.join(diff)} differ); "
+                "use another folder, or delete it to start again"
+            )
+        return
+    write_json_atomic(path, settings)

@@ -1,0 +1,148 @@
+"""Candidate uploads ranked by score, and the worth tables of their levels (MODEL.md section 4).
+
+An upload of sensor i in slot s at distance d has score rho_i^(-s) P g0 / (B N0 d^2 + P g0)
+(its age in slots for the AoI objectives); which of two uploads is worth more never changes
+over time, so "the best upload so far" replaces "the latest upload" exactly. Uploads are
+grouped into levels of equal score; w_l(t) is the worth in slot t of a packet at level l.
+Used by the MILP and by the Pyomo model.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from voiopt import lattice as lattice_mod
+from voiopt import physics
+from voiopt.instance import Instance
+
+# Uploads whose log-scores differ by less than this (relative) are one level (e.g. the four
+# lattice points symmetric about a sensor, whose distances differ only by rounding).
+SCORE_RTOL = 1e-12
+
+
+@dataclass(frozen=True, eq=False)
+class Structure:
+    """Everything about an instance that does not depend on the objective's aggregation.
+
+    Upload arrays are indexed by upload u (one per y variable); level arrays per sensor.
+    """
+
+    instance: Instance
+    kind: str  # "voi" or "aoi"
+    horizon: int
+    n_points: int
+    x_col: np.ndarray  # (T, n) column of x[p, t], -1 where p is unreachable in slot t
+    n_x: int
+    up_sensor: np.ndarray  # (M,)
+    up_slot: np.ndarray  # (M,)
+    up_point: np.ndarray  # (M,)
+    up_level: np.ndarray  # (M,) level index of the upload within its sensor
+    up_col: np.ndarray  # (M,) column of y (n_x + u)
+    worth0: np.ndarray  # (T+1, N) worth of the initial packet in slot t
+    level_worth: list[np.ndarray]  # per sensor (T+1, K_i): w_l(t), nan where not yet reachable
+    level_first_slot: list[np.ndarray]  # per sensor (K_i,): earliest slot of an upload at level >= l
+
+    @property
+    def n_sensors(self) -> int:
+        return self.worth0.shape[1]
+
+    @property
+    def n_uploads(self) -> int:
+        return len(self.up_col)
+
+    def best_worth(self) -> np.ndarray:
+        """(T+1, N): the best worth sensor i can possibly have in slot t (a relaxation)."""
+        best = self.worth0.copy()
+        for i, w in enumerate(self.level_worth):
+            if w.shape[1]:
+                top = np.where(np.isnan(w), -np.inf, w).max(axis=1)
+                best[:, i] = np.maximum(best[:, i], top)
+        return best
+
+    def candidates(self) -> np.ndarray:
+        """Sorted distinct worths any sensor can have in any slot t = 1..T."""
+        parts = [self.worth0[1:].ravel()]
+        for w in self.level_worth:
+            v = w[1:].ravel()
+            parts.append(v[~np.isnan(v)])
+        return np.unique(np.concatenate(parts))
+
+
+@lru_cache(maxsize=16)
+def structure(instance: Instance, kind: str) -> Structure:
+    lat = lattice_mod.build(instance)
+    T, N, n = instance.horizon, instance.n_sensors, lat.n_points
+    ch = instance.channel
+    steps = lat.steps_from(lat.start)
+    reach = steps[None, :] <= np.arange(T)[:, None]  # (T, n)
+    x_col = np.full((T, n), -1, dtype=np.int64)
+    x_col[reach] = np.arange(int(reach.sum()))
+    n_x = int(reach.sum())
+
+    t_all = np.arange(T + 1)
+    rho = np.array([s.rho for s in instance.sensors])
+    power = np.array([s.power_w for s in instance.sensors])
+    a0 = np.array([s.initial_aoi for s in instance.sensors], dtype=float)
+    q0 = np.array([instance.initial_distance(i) for i in range(N)])
+    if kind == "voi":
+        worth0 = physics.voi(a0[None, :] + t_all[:, None], q0[None, :], rho, power, ch)
+        log_c = np.log(physics.distance_factor(power[:, None], lat.distance, ch))  # (N, n)
+    else:
+        worth0 = -(a0[None, :] + t_all[:, None])
+    worth0 = np.asarray(worth0, dtype=float)
+
+    ups: list[tuple[np.ndarray, ...]] = []
+    level_worth, level_first = [], []
+    for i in range(N):
+        s_idx, p_idx = np.nonzero(reach & lat.in_range[i][None, :])
+        if kind == "voi":
+            score = -s_idx * math.log(rho[i]) + log_c[i, p_idx]
+            score0 = a0[i] * math.log(rho[i]) + math.log(
+                float(physics.distance_factor(power[i], q0[i], ch))
+            )
+        else:
+            score = s_idx.astype(float)
+            score0 = -a0[i]
+        keep = score > score0 + SCORE_RTOL * max(1.0, abs(score0))
+        s_idx, p_idx, score = s_idx[keep], p_idx[keep], score[keep]
+        order = np.argsort(score, kind="stable")
+        srt = score[order]
+        new = np.ones(len(srt), dtype=bool)
+        new[1:] = np.diff(srt) > SCORE_RTOL * np.maximum(1.0, np.abs(srt[1:]))
+        level_sorted = np.cumsum(new) - 1
+        level = np.empty(len(srt), dtype=np.int64)
+        level[order] = level_sorted
+        K = int(new.sum())
+        # the representative of a level is its lowest-scoring member (worth never overstated)
+        rep = order[np.flatnonzero(new)]
+        min_slot = np.full(K, T, dtype=np.int64)
+        np.minimum.at(min_slot, level, s_idx)
+        first = np.minimum.accumulate(min_slot[::-1])[::-1]  # earliest slot reaching level >= l
+        if kind == "voi":
+            ages = t_all[:, None] - s_idx[rep][None, :]
+            w = physics.voi(ages, lat.distance[i, p_idx[rep]][None, :], rho[i], power[i], ch)
+            w = np.asarray(w, dtype=float).reshape(T + 1, K)
+        else:
+            w = -(t_all[:, None] - s_idx[rep][None, :]).astype(float)
+        w = np.where(t_all[:, None] > first[None, :], w, np.nan)
+        # guard the ordering fact against rounding: worth is non-decreasing in the level
+        w = np.fmax.accumulate(np.where(np.isnan(w), -np.inf, w), axis=1)
+        w = np.where(t_all[:, None] > first[None, :], w, np.nan)
+        level_worth.append(w)
+        level_first.append(first)
+        ups.append((np.full(len(s_idx), i), s_idx, p_idx, level))
+
+    up_sensor, up_slot, up_point, up_level = (
+        np.concatenate([u[k] for u in ups]).astype(np.int64) for k in range(4)
+    )
+    order = np.lexsort((up_sensor, up_point, up_slot))  # by slot, then point, then sensor
+    up_sensor, up_slot, up_point, up_level = (a[order] for a in (up_sensor, up_slot, up_point, up_level))
+    up_col = n_x + np.arange(len(up_sensor))
+    return Structure(
+        instance, kind, T, n, x_col, n_x, up_sensor, up_slot, up_point, up_level, up_col,
+        worth0, level_worth, level_first,
+    )

@@ -1,0 +1,196 @@
+"""Plots (matplotlib, Agg): plan drawings, the gap distributions of a report, the paper's
+sweeps and case-study figures. Every value drawn is simulated from a plan."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from voiopt import instance as instance_mod
+from voiopt import lattice as lattice_mod
+from voiopt._files import atomic_write, write_csv
+from voiopt.errors import OptionError
+from voiopt.generate import case_study
+from voiopt.instance import Instance
+from voiopt.objectives import DEFAULT as OBJECTIVE
+from voiopt.plan import Plan
+from voiopt.result import Result
+from voiopt.simulate import simulate
+from voiopt.solvers import RANDOMISED
+
+SCHEMES = {  # method -> label in the paper's words
+    "qlearning": "VoI-optimal (Q-learning)",
+    "aoi-qlearning": "AoI-optimal (Q-learning)",
+    "shortest-path": "shortest path",
+    "dp": "proven optimum (dp)",
+}
+
+COLOURS = {"qlearning": "tab:blue", "aoi-qlearning": "tab:orange", "shortest-path": "tab:green", "dp": "black"}
+
+
+def start_figure(nrows: int = 1, ncols: int = 1, figsize=(5.0, 4.0)):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(nrows, ncols, figsize=figsize, squeeze=nrows * ncols == 1)
+    return fig, ax
+
+
+FIGURE_FORMATS = (".png", ".pdf", ".svg")
+
+
+def check_figure_path(path: str | os.PathLike) -> str:
+    """The matplotlib format of a figure file, from its suffix; any other suffix is an error."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in FIGURE_FORMATS:
+        raise OptionError(f"-o/--output: {str(path)!r}: a figure is written as .png, .pdf or .svg, got {suffix or 'no suffix'!r}")
+    return suffix[1:]
+
+
+def save_figure(fig, path: str | os.PathLike) -> None:
+    """Save a figure atomically in the format its suffix names, and free it."""
+    import matplotlib.pyplot as plt
+
+    fmt = check_figure_path(path)
+    fig.tight_layout()
+    try:
+        with atomic_write(path, binary=True) as f:
+            fig.savefig(f, format=fmt, dpi=150)
+    finally:
+        plt.close(fig)
+
+
+_ARROW = {(0, 1): "^", (0, -1): "v", (1, 0): ">", (-1, 0): "<", (0, 0): "o"}
+
+
+def draw_plan(ax, instance: Instance, plan: Plan, title: str = "") -> None:
+    """Path with direction markers (red where a sensor uploads), sensors and their ranges."""
+    from matplotlib.patches import Circle
+
+    lat = lattice_mod.build(instance)
+    ax.scatter(lat.points[:, 0], lat.points[:, 1], s=4, color="0.8", zorder=1)
+    for i, s in enumerate(instance.sensors):
+        ax.add_patch(Circle(s.position, instance.channel.d_th, fill=False, ls=":", color="tab:red", alpha=0.5))
+        ax.scatter(*s.position, marker="x", s=60, color="tab:red", zorder=4)
+        ax.annotate(f"s{i} (rho {s.rho:.2f})", s.position, xytext=(4, 4), textcoords="offset points", fontsize=7, color="tab:red")
+    pts = np.array(plan.positions)
+    ax.plot(pts[:, 0], pts[:, 1], color="tab:blue", lw=1.2, alpha=0.7, zorder=2)
+    ax.scatter(*pts[0], marker="s", s=70, facecolor="none", edgecolor="black", zorder=5, label="start")
+    step = instance.step
+    for t, (x, y) in enumerate(plan.positions):
+        nxt = plan.positions[t + 1] if t + 1 < len(plan.positions) else (x, y)
+        move = (round((nxt[0] - x) / step), round((nxt[1] - y) / step))
+        u = plan.schedule[t]
+        ax.scatter(x, y, marker=_ARROW.get(move, "o"), s=45, color="tab:red" if u is not None else "tab:blue", zorder=3)
+        if u is not None:
+            ax.annotate(f"t{t}:s{u}", (x, y), xytext=(-6, -11), textcoords="offset points", fontsize=6)
+    ax.set_xlim(-0.4, instance.width + 0.4)
+    ax.set_ylim(-0.4, instance.height + 0.4)
+    ax.set_aspect("equal")
+    ax.set_title(title, fontsize=9)
+
+
+def plot_result(result: Result, instance: Instance, path: str | os.PathLike) -> None:
+    """``voiopt plot``: one result's trajectory, with its simulated metrics in the title."""
+    if result.plan is None:
+        raise OptionError(f"RESULT: the result has no plan (status {result.status})")
+    metrics = simulate(instance, result.plan).metrics  # re-simulated: the file is not trusted
+    fig, ax = start_figure(figsize=(5.2, 5.2))
+    title = f"{instance.name} — {result.method}, {result.objective} = {metrics[result.objective]:.4g} ({result.status})"
+    draw_plan(ax, instance, result.plan, title)
+    save_figure(fig, path)
+
+
+def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path, objective: str) -> None:
+    fig, ax = start_figure(figsize=(1.6 + 1.3 * len(methods), 3.6))
+    data = [[100 * r["gap"] for r in rows if r["method"] == m and r["gap"] is not None] for m in methods]
+    positions = range(1, len(methods) + 1)
+    ax.boxplot([d or [math.nan] for d in data], positions=list(positions), widths=0.5, showfliers=False)
+    for x, d in zip(positions, data, strict=True):
+        jitter = [x + 0.12 * ((k * 0.618) % 1 - 0.5) for k in range(len(d))]
+        ax.scatter(jitter, d, s=10, alpha=0.6, color="tab:blue", zorder=3)
+    ax.set_xticks(list(positions), methods, rotation=20)
+    ax.set_ylabel("proven gap to optimum (%)")
+    ax.set_title(f"{objective}: gap distributions")
+    save_figure(fig, path)
+
+
+def plot_sweep(sweep, rows: list[dict[str, Any]], path: Path) -> None:
+    fig, ax = start_figure(figsize=(6.0, 4.2))
+    for m, label in SCHEMES.items():
+        mine = [r for r in rows if r["method"] == m and r["mean"] is not None]
+        xs = [r["x"] for r in mine]
+        ys = [r["mean"] for r in mine]
+        ax.plot(xs, ys, label=label, color=COLOURS[m], marker="o", ms=4, ls="--" if m == "dp" else "-")
+        if m in RANDOMISED:
+            ax.fill_between(xs, [r["seed_min"] for r in mine], [r["seed_max"] for r in mine],
+                            color=COLOURS[m], alpha=0.2, lw=0)
+        if m == "dp":
+            uncertified = [r for r in mine if r["certified"] is not None and r["certified"] < r["networks"] and r["mean_bound"] is not None]
+            if uncertified:
+                ax.fill_between([r["x"] for r in mine], ys, [r["mean_bound"] or r["mean"] for r in mine],
+                                color="0.6", alpha=0.3, label="proven upper bound (not certified)")
+    if sweep.log_x:
+        ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(sweep.x_label)
+    ax.set_ylabel("time-average minimum VoI (bit/s)\nmean over networks; Q-learning: mean over seeds,\nband from the worst to the best seed", fontsize=8)
+    ax.set_title(sweep.title, fontsize=8)
+    ax.legend(fontsize=7)
+    save_figure(fig, path)
+
+
+def case_study_figures(inst: Instance, results: dict[str, Result], out: Path) -> list[Path]:
+    fig, axes = start_figure(2, 2, figsize=(10, 10))
+    for ax, (m, r) in zip(axes.ravel(), results.items(), strict=True):
+        if r.plan is None:
+            ax.set_title(f"{SCHEMES[m]}: no plan ({r.status})")
+            continue
+        metric = simulate(inst, r.plan).metrics[OBJECTIVE]
+        draw_plan(ax, inst, r.plan, f"{SCHEMES[m]}: mean-min-voi {metric:.4g}")
+    save_figure(fig, out / "fig3_case_study.png")
+
+    fig, ax = start_figure(figsize=(6, 4))
+    rows = []
+    for m, r in results.items():
+        if r.plan is None:
+            continue
+        traj = simulate(inst, r.plan)
+        avg = traj.voi[1:].mean(axis=1)
+        ax.plot(range(1, inst.horizon + 1), avg, marker="o", ms=3, label=SCHEMES[m], color=COLOURS[m])
+        rows += [{"t": t + 1, "method": m, "average_voi": a, "min_voi": float(traj.voi[t + 1].min())} for t, a in enumerate(avg)]
+    ax.set_yscale("log")
+    ax.set_xlabel("time slot t")
+    ax.set_ylabel("average VoI over sensors (bit/s)")
+    ax.set_title(f"{inst.name}: average VoI over time", fontsize=9)
+    ax.legend(fontsize=7)
+    save_figure(fig, out / "fig4_voi_over_time.png")
+    write_csv(out / "fig4_voi_over_time.csv", rows, ["t", "method", "average_voi", "min_voi"],
+              [f"{inst.name}: per-slot average and minimum VoI over sensors (bit/s), simulated from each scheme's plan"])
+    write_csv(out / "fig3_case_study.csv",
+              [{"method": m, "slot": t, "x": p[0], "y": p[1], "upload": r.plan.schedule[t]}
+               for m, r in results.items() if r.plan is not None for t, p in enumerate(r.plan.positions)],
+              ["method", "slot", "x", "y", "upload"], [f"{inst.name}: each scheme's plan, position and uploaded sensor per slot"])
+    return [out / "fig3_case_study.png", out / "fig3_case_study.csv", out / "fig4_voi_over_time.png", out / "fig4_voi_over_time.csv"]
+
+
+def instance_for(result: Result, instance_path: str | None) -> Instance:
+    """The instance a result belongs to: given, or instances/NAME.json, or the built-in case study."""
+    if instance_path:
+        inst = instance_mod.load(instance_path)
+    elif Path("instances", f"{result.instance}.json").is_file():
+        inst = instance_mod.load(Path("instances", f"{result.instance}.json"))
+    elif result.instance == "case-study":
+        inst = case_study()
+    else:
+        raise OptionError(f"--instance: give the instance of result {result.instance!r} (not found as instances/{result.instance}.json)")
+    if inst.name != result.instance:
+        raise OptionError(f"--instance: the result is for {result.instance!r}, the instance is {inst.name!r}")
+    return inst

@@ -1,0 +1,97 @@
+"""What every solver shares: the checks of the common options (time_limit in seconds,
+memory_limit in GB, seed, threads) and the Incumbent, the best simulated plan so far.
+
+A solver is a function ``solve(instance, objective, *, progress=False, <options>) -> Result``
+registered in solvers/__init__.py. It stops by the rule of voiopt.stop and returns its
+incumbent; the Result's value is always the simulator's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from voiopt import lattice as lattice_mod
+from voiopt import objectives
+from voiopt.errors import MemoryLimitError, OptionError
+from voiopt.instance import Instance
+from voiopt.plan import Plan
+from voiopt.simulate import check_plan, simulate_indices
+from voiopt.stop import GB
+
+DEFAULT_MEMORY_GB = 4.0  # every method's memory limit unless told otherwise
+
+
+def _number(v) -> bool:
+    return not isinstance(v, bool) and isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v)
+
+
+def check_limits(time_limit: float | None, memory_limit: float | None) -> None:
+    if time_limit is not None and not (_number(time_limit) and time_limit > 0):
+        raise OptionError(f"--time-limit: must be a number of seconds > 0, got {time_limit!r}")
+    if memory_limit is not None and not (_number(memory_limit) and memory_limit > 0):
+        raise OptionError(f"--memory-limit: must be a number of GB > 0, got {memory_limit!r}")
+
+
+def check_seed(seed: int) -> None:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise OptionError(f"seed: must be an integer >= 0, got {seed!r}")
+
+
+def check_threads(threads: int | None) -> None:
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
+        raise OptionError(f"--threads: must be an integer >= 1, got {threads!r}")
+
+
+def require_memory(nbytes: float, memory_limit: float | None, what: str) -> None:
+    """Refuse, before allocating, work whose tables alone would pass the memory limit: there is
+    no plan yet to return, so this is a one-line error (exit 2), not a status."""
+    if memory_limit is not None and nbytes > memory_limit * GB:
+        raise MemoryLimitError(
+            f"--memory-limit: {what} need about {nbytes / GB:.3g} GB, over the limit of {memory_limit:g} GB "
+            "(raise --memory-limit, or make the instance smaller)"
+        )
+
+
+def lattice_bytes(instance: Instance) -> float:
+    """The size of the lattice tables every method builds: distances and ranges per sensor
+    and point (lattice.build)."""
+    n = lattice_mod.n_points(instance)
+    return instance.n_sensors * n * 9.0 + n * 80.0
+
+
+def points_in_range(instance: Instance) -> float:
+    """An upper bound on the lattice points within d_th of one sensor (no lattice needed)."""
+    return (2.0 * instance.channel.d_th / instance.step + 2.0) ** 2
+
+
+class Incumbent:
+    """The best plan offered so far, by its simulated value (never a solver's own number)."""
+
+    def __init__(self, instance: Instance, objective: str) -> None:
+        self.instance = instance
+        self.objective = objective
+        self.idx: np.ndarray | None = None
+        self.sched: np.ndarray | None = None
+        self.value: float | None = None
+        self.source: str | None = None
+        self.offers: list[tuple[str, float]] = []  # (source, simulated value) of every offer
+
+    def offer(self, idx, sched, source: str) -> float:
+        """Simulate a plan given as point indices and schedule (-1 = none); keep it if it is
+        strictly better. Returns its simulated value."""
+        idx, sched = np.asarray(idx, np.int64), np.asarray(sched, np.int64)
+        value = simulate_indices(self.instance, idx, sched).metrics[self.objective]
+        self.offers.append((source, value))
+        if self.value is None or objectives.better(self.objective, value, self.value):
+            self.idx, self.sched, self.value, self.source = idx, sched, value, source
+        return value
+
+    def offer_plan(self, plan: Plan, source: str) -> float:
+        """The same for a Plan (checked: a PlanError if it does not fit the instance)."""
+        return self.offer(*check_plan(self.instance, plan), source)
+
+    @property
+    def plan(self) -> Plan | None:
+        return None if self.idx is None else Plan.from_indices(self.instance, self.idx, self.sched)

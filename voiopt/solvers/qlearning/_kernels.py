@@ -1,0 +1,219 @@
+"""Algorithm 1 compiled with numba: episodes of epsilon-greedy Q-learning over the hash
+table of _qtable.py, and the greedy rollout of a trained table.
+
+Training runs in chunks of whole episodes; between chunks Python grows the arrays when
+needed, updates the progress bar and checks the stop rule. The key is updated in place each
+step, not rebuilt.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from voiopt.models import mdp as mdp_mod
+from voiopt.solvers.qlearning._qtable import (
+    _ARG_BITS,
+    _ARG_MASK,
+    MAX_LOAD,
+    QTable,
+    _encode,
+    _find,
+    _greedy,
+    _insert,
+)
+from voiopt.solvers.qlearning._rng import _GOLDEN, _S11, _TWO_M53, _mix
+
+
+@nb.njit(cache=True, inline="always")
+def _set_field(k0, key, f, value, field_word, field_shift, clear):
+    """Set packed field f to value in the key (k0 is its first word, kept in a register);
+    returns the new first word."""
+    v = np.uint64(value) << np.uint64(field_shift[f])
+    w = field_word[f]
+    if w == 0:
+        return (k0 & clear[f]) | v
+    key[w] = (key[w] & clear[f]) | v
+    return k0
+
+
+@nb.njit(cache=True)
+def _train(
+    n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
+    start, initial_aoi, n_actions, action_upload, action_next, voi_reward,
+    field_word, field_shift, field_width, table, tablef, pool, counts, rng,
+):
+    """Run up to n_episodes episodes; stop early (at an episode boundary) when the table could
+    overflow during the next one. counts = [entries, pool used]; eps[0] and rng[0] are updated
+    in place. Returns the number of episodes run."""
+    N = initial_aoi.shape[0]
+    K = action_upload.shape[1]
+    W = table.shape[1] - 2
+    META, QMAX = W, W + 1
+    max_states = MAX_LOAD * table.shape[0]
+    aoi = np.empty(N, np.int64)
+    qidx = np.empty(N, np.int64)
+    # the packed key is updated in place each step: every age field +1 (and the slot field,
+    # if in the state), then the new position and, on an upload, that sensor's two fields
+    key0 = np.empty(W, np.uint64)
+    _encode(start, initial_aoi, np.zeros(N, np.int64), 0, field_word, field_shift, key0)
+    key = np.empty(W, np.uint64)
+    inc = np.zeros(W, np.uint64)
+    for i in range(N):
+        inc[field_word[1 + 2 * i]] += np.uint64(1) << np.uint64(field_shift[1 + 2 * i])
+    if slot_in_state:
+        inc[field_word[2 * N + 1]] += np.uint64(1) << np.uint64(field_shift[2 * N + 1])
+    clear = np.empty(2 + 2 * N, np.uint64)  # ~(field mask) per field
+    for f in range(2 + 2 * N):
+        clear[f] = ~(((np.uint64(1) << np.uint64(field_width[f])) - np.uint64(1)) << np.uint64(field_shift[f]))
+    ps, pclear = np.uint64(field_shift[0]), clear[0]  # the position is in word 0
+    inc0 = inc[0]
+
+    bg = beta * gamma
+    state = rng[0]
+    n_states, used = counts[0], counts[1]
+    for ep in range(n_episodes):
+        if n_states + horizon + 1 > max_states or used + (horizon + 1) * K > pool.shape[0]:
+            rng[0] = state
+            counts[0], counts[1] = n_states, used
+            return ep
+        p = start
+        for i in range(N):
+            aoi[i] = initial_aoi[i]
+            qidx[i] = 0
+        k0 = key0[0]
+        for w in range(1, W):
+            key[w] = key0[w]
+        cur, found = _find(k0, key, table)
+        if not found:
+            _insert(table, tablef, cur, k0, key, pool, used, n_actions[p], q_init)
+            n_states += 1
+            used += n_actions[p]
+        epsilon = eps[0]
+        for t in range(horizon):
+            # epsilon-greedy: x, and if exploring a second number for the action
+            state += _GOLDEN
+            x = float(_mix(state) >> _S11) * _TWO_M53
+            if x < epsilon:
+                state += _GOLDEN
+                k = int(float(_mix(state) >> _S11) * _TWO_M53 * n_actions[p])
+            else:
+                k = _greedy(table, cur)
+            u = action_upload[p, k]
+            p_next = action_next[p, k]
+            for i in range(N):
+                aoi[i] += 1
+            k0 += inc0
+            for w in range(1, W):
+                key[w] += inc[w]
+            k0 = (k0 & pclear) | (np.uint64(p_next) << ps)
+            if u >= 0:
+                aoi[u] = 1
+                qidx[u] = 1 + p
+                k0 = _set_field(k0, key, 1 + 2 * u, 1, field_word, field_shift, clear)  # A_u = 1
+                k0 = _set_field(k0, key, 2 + 2 * u, 1 + p, field_word, field_shift, clear)  # q_u: from p
+            if aoi_reward:
+                worst = aoi[0]
+                for i in range(1, N):
+                    if aoi[i] > worst:
+                        worst = aoi[i]
+                r = -float(worst)
+            else:
+                r = voi_reward[0, aoi[0], qidx[0]]
+                for i in range(1, N):
+                    v = voi_reward[i, aoi[i], qidx[i]]
+                    if v < r:
+                        r = v
+            if u < 0:
+                r = r - penalty
+            # find s_{t+1}; store it unless it is s_T (never acted in)
+            nxt, found = _find(k0, key, table)
+            if found:
+                future = tablef[nxt, QMAX]
+            else:
+                future = q_init
+                if t + 1 < horizon:
+                    _insert(table, tablef, nxt, k0, key, pool, used, n_actions[p_next], q_init)
+                    n_states += 1
+                    used += n_actions[p_next]
+            # Q(s_t, k) and the cached first maximum of s_t
+            meta = table[cur, META]
+            row = np.int64(meta >> _ARG_BITS) - 1
+            v = (1.0 - beta) * pool[row + k] + beta * r + bg * future
+            pool[row + k] = v
+            a = np.int64(meta & _ARG_MASK)
+            best = tablef[cur, QMAX]
+            if k == a:
+                if v >= best:
+                    tablef[cur, QMAX] = v
+                else:
+                    a = 0
+                    best = pool[row]
+                    for j in range(1, n_actions[p]):
+                        if pool[row + j] > best:
+                            best = pool[row + j]
+                            a = j
+                    table[cur, META] = (meta & ~_ARG_MASK) | np.uint64(a)
+                    tablef[cur, QMAX] = best
+            elif v > best or (v == best and k < a):
+                table[cur, META] = (meta & ~_ARG_MASK) | np.uint64(k)
+                tablef[cur, QMAX] = v
+            p = p_next
+            cur = nxt
+        eps[0] = eps[0] - eps0
+    rng[0] = state
+    counts[0], counts[1] = n_states, used
+    return n_episodes
+
+
+@nb.njit(cache=True)
+def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_upload, action_next,
+             field_word, field_shift, table):
+    """The greedy plan of the table: first maximal action in each state (action 0 if unseen)."""
+    N = initial_aoi.shape[0]
+    aoi = initial_aoi.copy()
+    qidx = np.zeros(N, np.int64)
+    key = np.empty(table.shape[1] - 2, np.uint64)
+    idx = np.empty(horizon, np.int64)
+    sched = np.empty(horizon, np.int64)
+    p = start
+    for t in range(horizon):
+        _encode(p, aoi, qidx, t * slot_in_state, field_word, field_shift, key)
+        s, found = _find(key[0], key, table)
+        k = _greedy(table, s) if found else 0
+        u = action_upload[p, k]
+        idx[t] = p
+        sched[t] = u
+        for i in range(N):
+            aoi[i] += 1
+        if u >= 0:
+            aoi[u] = 1
+            qidx[u] = 1 + p
+        p = action_next[p, k]
+    return idx, sched
+
+
+def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, eps0: float,
+          beta: float, gamma: float, rng: np.ndarray) -> tuple[int, bool]:
+    """Run n_episodes of Algorithm 1, growing the table as needed.
+    Returns (episodes run, False if stopped by the memory limit)."""
+    done = 0
+    while done < n_episodes:
+        done += _train(
+            n_episodes - done, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
+            model.reward == "aoi", int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
+            model.action_upload, model.action_next, model.voi_reward, model.field_word,
+            model.field_shift, model.field_width, table.table, table.table.view(np.float64), table.pool,
+            table.counts, rng,
+        )
+        if done < n_episodes and not table.grow():
+            return done, False
+    return done, True
+
+
+def rollout(model: mdp_mod.MDP, table: QTable) -> tuple[np.ndarray, np.ndarray]:
+    """(point indices, schedule with -1) of the greedy plan of the table."""
+    return _rollout(
+        model.horizon, int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions, model.action_upload,
+        model.action_next, model.field_word, model.field_shift, table.table,
+    )

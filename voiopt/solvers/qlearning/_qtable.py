@@ -1,0 +1,180 @@
+"""The Q-table: an open-addressing hash table keyed by the packed state of models/mdp.py,
+with the Q-values of each state's feasible actions in a separate pool.
+
+Each slot of ``table`` (power-of-two size, linear probing, at most 70% full) holds the key
+words, the row where the state's Q-values start in ``pool`` with the state's greedy action,
+and max_a Q(s, a). A step reads the greedy action and the bootstrap value from the slot it
+probes, so its critical path is one hash probe.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from voiopt.errors import OptionError
+from voiopt.models import mdp as mdp_mod
+from voiopt.solvers.qlearning._rng import _mix
+
+MAX_LOAD = 0.7  # hash slots at most 70% full
+
+# ----------------------------------------------------------------------------- hash table
+
+# A slot of ``table`` (uint64, one row per slot) is the W key words, then META = 1 + the row of
+# the state's Q-values in ``pool`` shifted left by _ARG_BITS, or'ed with the index of the
+# state's first maximal Q-value (META 0 = empty slot), then the bits of that maximal Q-value
+# (read and written through ``tablef``, a float64 view of the same memory). Keeping the
+# greedy action and max_a Q(s, a) next to the key means a step's critical path is one hash
+# probe; the Q row itself is read only to update one value, off that path.
+_ARG_BITS = np.uint64(16)
+_ARG_MASK = np.uint64((1 << 16) - 1)
+MAX_ACTIONS = 1 << 16
+
+
+@nb.njit(cache=True, inline="always")
+def _encode(p, aoi, qidx, slot, field_word, field_shift, key):
+    key[:] = 0
+    key[field_word[0]] |= np.uint64(p) << np.uint64(field_shift[0])
+    N = aoi.shape[0]
+    for i in range(N):
+        f = 1 + 2 * i
+        key[field_word[f]] |= np.uint64(aoi[i]) << np.uint64(field_shift[f])
+        key[field_word[f + 1]] |= np.uint64(qidx[i]) << np.uint64(field_shift[f + 1])
+    key[field_word[2 * N + 1]] |= np.uint64(slot) << np.uint64(field_shift[2 * N + 1])
+
+
+@nb.njit(cache=True, inline="always")
+def _find(k0, key, table):
+    """(slot, found): where the key is, or the empty slot where it would go. The key's first
+    word is k0 (a scalar, so that the common one-word key stays in a register); key[0] is
+    ignored and key[1:] are its other words."""
+    mask = table.shape[0] - 1
+    W = key.shape[0]
+    h = _mix(k0)  # = _hash(key)
+    for w in range(1, W):
+        h = _mix(h ^ key[w])
+    s = np.int64(h & np.uint64(mask))
+    while True:
+        if table[s, W] == 0:
+            return s, False
+        if table[s, 0] == k0:
+            same = True
+            for w in range(1, W):
+                if table[s, w] != key[w]:
+                    same = False
+                    break
+            if same:
+                return s, True
+        s = (s + 1) & mask
+
+
+@nb.njit(cache=True, inline="always")
+def _greedy(table, s):
+    """The first action of maximal Q-value in slot s."""
+    return np.int64(table[s, table.shape[1] - 2] & _ARG_MASK)
+
+
+@nb.njit(cache=True, inline="always")
+def _insert(table, tablef, s, k0, key, pool, used, n, q_init):
+    """Store the key (k0, key[1:]) in empty slot s with n fresh Q-values at pool[used:]."""
+    W = key.shape[0]
+    table[s, 0] = k0
+    for w in range(1, W):
+        table[s, w] = key[w]
+    table[s, W] = np.uint64(used + 1) << _ARG_BITS  # greedy action 0
+    tablef[s, W + 1] = q_init
+    for j in range(n):
+        pool[used + j] = q_init
+
+
+@nb.njit(cache=True)
+def _rehash(old, table):
+    """Insert every entry of old into the empty, larger table (whole slots, word by word)."""
+    W = table.shape[1] - 2
+    mask = table.shape[0] - 1
+    for o in range(old.shape[0]):
+        if old[o, W] == 0:
+            continue
+        h = np.uint64(0)
+        for w in range(W):
+            h = _mix(h ^ old[o, w])
+        s = np.int64(h & np.uint64(mask))
+        while table[s, W] != 0:
+            s = (s + 1) & mask
+        for c in range(W + 2):
+            table[s, c] = old[o, c]
+
+
+class QTable:
+    """The growable hash table and Q-value pool of one training run."""
+
+    def __init__(self, model: mdp_mod.MDP, q_init: float, max_bytes: float | None, slots: int = 1 << 15):
+        self.model = model
+        self.q_init = float(q_init)
+        self.max_bytes = float("inf") if max_bytes is None else float(max_bytes)
+        if model.max_actions > MAX_ACTIONS:
+            raise OptionError(f"at most {MAX_ACTIONS} actions per state, got {model.max_actions}")
+        self.counts = np.zeros(2, np.int64)  # [states, Q-values used]
+        self.table = np.zeros((_pow2(slots), model.n_words + 2), np.uint64)
+        mean_actions = float(model.n_actions.mean())
+        pool_len = int(MAX_LOAD * len(self.table) * mean_actions) + self._margin()
+        # The pool grows inside one reservation of address space as large as the memory limit:
+        # pages are backed only when first written, so growing the pool is a longer view of the
+        # reservation, not a copy. (Q-values are written when their state is stored, so the
+        # pool needs no zeroing.)
+        try:
+            reserve = int(self.max_bytes // 8) if self.max_bytes < float("inf") else 0
+            self._reserved = np.empty(max(pool_len, reserve), np.float64)
+        except MemoryError:  # no address space to spare: grow by copying
+            self._reserved = np.empty(pool_len, np.float64)
+        self.pool = self._reserved[:pool_len]
+
+    def _margin(self) -> int:
+        return (self.model.horizon + 1) * self.model.max_actions
+
+    @property
+    def n_states(self) -> int:
+        return int(self.counts[0])
+
+    @property
+    def nbytes(self) -> int:
+        return self.table.nbytes + self.pool.nbytes
+
+    def grow(self) -> bool:
+        """Double whatever is short for one more episode; False if that passes the memory limit."""
+        m = self.model
+        slots = len(self.table)
+        if self.counts[0] + m.horizon + 1 > MAX_LOAD * slots:
+            slots *= 2
+        pool_len = len(self.pool)
+        while self.counts[1] + self._margin() > pool_len:
+            pool_len *= 2
+        new_bytes = (slots * self.table.shape[1] if slots != len(self.table) else 0) * 8
+        new_bytes += (pool_len if pool_len != len(self.pool) else 0) * 8
+        if self.nbytes + new_bytes > self.max_bytes:  # old and new arrays live together briefly
+            return False
+        if slots != len(self.table):
+            table = np.zeros((slots, self.table.shape[1]), np.uint64)
+            _rehash(self.table, table)
+            self.table = table
+        if pool_len > len(self._reserved):
+            reserved = np.empty(pool_len, np.float64)
+            reserved[: len(self.pool)] = self.pool
+            self._reserved = reserved
+        self.pool = self._reserved[:pool_len]
+        return True
+
+    def to_dict(self) -> dict[tuple, list[float]]:
+        """{state: Q-values of its feasible actions}, for tests and inspection."""
+        m = self.model
+        W = m.n_words
+        out = {}
+        for slot in self.table[self.table[:, W] != 0]:
+            state = m.decode(slot[:W])
+            r = (int(slot[W]) >> int(_ARG_BITS)) - 1
+            out[state] = self.pool[r: r + int(m.n_actions[state[0]])].tolist()
+        return out
+
+
+def _pow2(x: int) -> int:
+    return 1 << max(4, (int(x) - 1).bit_length())

@@ -1,0 +1,167 @@
+"""The paper's Q-learning schemes as solvers: options, the training loop with progress and
+the stop rule, and the result of the greedy plan (MODEL.md section 7)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from rich.progress import TextColumn
+
+from voiopt import lattice as lattice_mod
+from voiopt.errors import OptionError
+from voiopt.instance import Instance
+from voiopt.models import mdp as mdp_mod
+from voiopt.objectives import AOI_DEFAULT, DEFAULT, check_objective
+from voiopt.plan import Plan
+from voiopt.progress import progress_bar
+from voiopt.result import Result
+from voiopt.simulate import simulate_indices
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    check_limits,
+    check_seed,
+    lattice_bytes,
+    require_memory,
+)
+from voiopt.solvers.qlearning._kernels import rollout, train
+from voiopt.solvers.qlearning._qtable import QTable
+from voiopt.solvers.qlearning._rng import seed_state
+from voiopt.stop import MEMORY_LIMIT, watch
+
+BETA, GAMMA, EPISODES = 0.75, 0.9, 1_000_000
+
+
+_WARM = False
+
+
+def warm_up() -> float:
+    """Compile (or load from numba's cache) the kernels once per process, on a tiny MDP, so
+    that a solve's runtime_s measures Algorithm 1 alone; returns the seconds this took (0 when
+    already done). The kernels' argument types do not depend on the instance."""
+    global _WARM
+    if _WARM:
+        return 0.0
+    from voiopt.generate import generate
+
+    t0 = time.perf_counter()
+    model = mdp_mod.build(generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up"))
+    table = QTable(model, 0.0, 64 * 2**20)
+    train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
+    rollout(model, table)
+    _WARM = True
+    return time.perf_counter() - t0
+
+
+
+def _check_options(episodes, seed, beta, gamma, q_init, penalty):
+    def bad(name, value, rule):
+        raise OptionError(f"{name}: {rule}, got {value!r}")
+
+    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
+        bad("episodes", episodes, "must be an integer >= 1")
+    for name, v in (("beta", beta), ("gamma", gamma)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 1:
+            bad(name, v, "must be in (0, 1]")
+    for name, v in (("q_init", q_init), ("penalty", penalty)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            bad(name, v, "must be a finite number")
+
+
+def mdp_bytes(instance: Instance) -> float:
+    """An upper bound on the bytes of the MDP's arrays (models/mdp.py) and the first Q-table."""
+    N, n, T = instance.n_sensors, lattice_mod.n_points(instance), instance.horizon
+    max_age = max(s.initial_aoi for s in instance.sensors) + T
+    return lattice_bytes(instance) + 8.0 * N * (max_age + 1) * (n + 1) + 3 * 8.0 * n * 5 * (N + 1) + 2**15 * 8 * (2 * N + 4)
+
+
+METHOD_OF_REWARD = {"voi": "qlearning", "aoi": "aoi-qlearning"}
+
+
+def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
+         episodes: int, seed: int, beta: float, gamma: float, q_init: float, penalty: float,
+         time_limit: float | None, memory_limit: float, slot_in_state: bool, reward_units: str) -> Result:
+    check_objective(objective)
+    _check_options(episodes, seed, beta, gamma, q_init, penalty)
+    check_seed(seed)
+    check_limits(time_limit, memory_limit)
+    mdp_mod.check_reward_units(reward_units)
+    if not isinstance(slot_in_state, bool):
+        raise OptionError(f"slot_in_state: must be true or false, got {slot_in_state!r}")
+    method = METHOD_OF_REWARD[reward]
+    require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
+    startup_s = warm_up()
+    with watch(time_limit, memory_limit) as stop:
+        model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
+        table = QTable(model, q_init, stop.memory_bytes)
+        eps = np.array([1.0])
+        eps0 = 1.0 / episodes
+        rng = np.array([seed_state(seed)], dtype=np.uint64)
+        done, chunk = 0, 2000
+        columns = (TextColumn("eps {task.fields[eps]:.3f}"), TextColumn("greedy plan {task.fields[greedy]}"),
+                   TextColumn("states {task.fields[states]}"))
+        with progress_bar(progress, *columns) as bar:
+            task = bar.add_task(method, total=episodes, eps=1.0, greedy="-", states=0)
+            while done < episodes:
+                n = min(chunk, episodes - done)
+                c0 = time.perf_counter()
+                ran, fits = train(model, table, n, eps, eps0, beta, gamma, rng)
+                done += ran
+                elapsed = time.perf_counter() - c0
+                chunk = int(min(max(chunk * min(4.0, 0.25 / max(elapsed, 1e-3)), 100), 200_000))
+                idx, sched = rollout(model, table)
+                value = simulate_indices(instance, idx, sched).metrics[objective]
+                bar.update(task, completed=done, eps=max(float(eps[0]), 0.0), greedy=f"{value:.6g}",
+                           states=table.n_states)
+                if not fits:
+                    stop.request(MEMORY_LIMIT)
+                if done < episodes and stop.check():  # a request after the last episode changes nothing
+                    if progress:
+                        bar.console.print(f"[yellow]{method}: {stop.describe()} after {done} of {episodes} "
+                                          "episodes; returning the greedy plan so far")
+                    break
+        idx, sched = rollout(model, table)
+    solver = {
+        "reward": reward, "reward_units": reward_units, "episodes": episodes, "episodes_run": done, "seed": seed,
+        "beta": beta, "gamma": gamma, "epsilon0": eps0, "q_init": q_init, "penalty": penalty,
+        "slot_in_state": slot_in_state, "memory_limit_gb": memory_limit,
+        "table_states": table.n_states, "table_mib": round(table.nbytes / 2**20, 3),
+        "startup_s": startup_s,
+    }
+    if stop.reason and done < episodes:
+        solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes ({table.n_states} states)"
+    return Result.from_plan(
+        instance, method, objective, Plan.from_indices(instance, idx, sched),
+        status=(stop.reason if done < episodes else None) or "feasible", runtime_s=stop.elapsed(), solver=solver,
+    )
+
+
+def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = False,
+          episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
+          q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY, time_limit: float | None = None,
+          memory_limit: float = DEFAULT_MEMORY_GB, slot_in_state: bool = False, reward_units: str = "bit/s") -> Result:
+    """The paper's "VoI-optimal" scheme: Algorithm 1 with reward min_i V_i - idle penalty.
+
+    Options default to the paper's values: V in bit/s and a penalty of 100 (MODEL.md section 7);
+    ``reward_units="bit/s/Hz"`` divides V by B, for comparison. ``memory_limit`` (GB) bounds
+    the Q-table. ``slot_in_state=True`` (not the paper's) adds t to the state; with gamma=1 and
+    penalty=0 Q-learning then targets exactly T * mean-min-voi (in reward units)."""
+    return _run(instance, objective, "voi", **_options(locals()))
+
+
+def solve_aoi(instance: Instance, objective: str = AOI_DEFAULT, *, progress: bool = False,
+              episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
+              q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY,
+              time_limit: float | None = None, memory_limit: float = DEFAULT_MEMORY_GB,
+              slot_in_state: bool = False, reward_units: str = "bit/s") -> Result:
+    """The paper's "AoI-optimal" scheme: Algorithm 1 with reward -max_i A_i - idle penalty.
+
+    The AoI reward has no units to choose; ``reward_units`` is accepted (and recorded) so that
+    a sweep can pass one setting to both Q-learning schemes."""
+    return _run(instance, objective, "aoi", **_options(locals()))
+
+
+def _options(arguments: dict) -> dict:
+    """A scheme's keyword options, from its arguments."""
+    return {k: v for k, v in arguments.items() if k not in ("instance", "objective")}

@@ -1,0 +1,150 @@
+"""One stop rule for every solver, sweep and figure run: a time limit, a memory limit, or a
+request by Ctrl-C or SIGTERM. Long work calls ``stop.check()`` at safe points and, once it
+says why, returns its best plan and proven bound with that reason as the status."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from contextlib import contextmanager
+
+TIME_LIMIT, MEMORY_LIMIT, INTERRUPTED = "time_limit", "memory_limit", "interrupted"
+GB = 1e9  # memory limits are given in GB (10^9 bytes) everywhere
+
+
+class Stop:
+    """Why a run must stop now, if it must: ``reason`` is None, or one of the three statuses."""
+
+    def __init__(self, time_limit: float | None = None, memory_limit: float | None = None) -> None:
+        self.t0 = time.perf_counter()
+        self.time_limit = time_limit
+        self.memory_limit = memory_limit
+        self.deadline = None if time_limit is None else self.t0 + float(time_limit)
+        self.memory_bytes = None if memory_limit is None else float(memory_limit) * GB
+        self.reason: str | None = None
+        self.signal: int | None = None  # the signal that asked to stop, if one did
+
+    @property
+    def requested(self) -> bool:
+        return self.reason is not None
+
+    def request(self, reason: str = INTERRUPTED, signum: int | None = None) -> None:
+        if self.reason is None:
+            self.reason = reason
+            self.signal = signum
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.t0
+
+    def remaining(self) -> float | None:
+        """Seconds left before the time limit (None: no limit)."""
+        return None if self.deadline is None else self.deadline - time.perf_counter()
+
+    def fits(self, nbytes: float) -> bool:
+        """Does holding ``nbytes`` stay within the memory limit?"""
+        return self.memory_bytes is None or nbytes <= self.memory_bytes
+
+    def check(self, memory_used: float = 0.0) -> str | None:
+        """The reason to stop now (and remember it), or None to go on."""
+        if self.reason is None:
+            if self.deadline is not None and time.perf_counter() >= self.deadline:
+                self.reason = TIME_LIMIT
+            elif not self.fits(memory_used):
+                self.reason = MEMORY_LIMIT
+        return self.reason
+
+    def describe(self) -> str:
+        """One line on why the run stopped, for ``solver.stopped``."""
+        if self.reason == TIME_LIMIT:
+            return f"time limit of {self.time_limit:g} s reached"
+        if self.reason == MEMORY_LIMIT:
+            return f"memory limit of {self.memory_limit:g} GB reached"
+        if self.reason == INTERRUPTED:
+            name = signal.Signals(self.signal).name if self.signal else "a stop request"
+            return f"interrupted by {name}"
+        return "not stopped"
+
+
+class Interrupted(KeyboardInterrupt):
+    """Work stopped by a signal as a whole (a sweep, or a second Ctrl-C). ``exit_code`` is
+    128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM."""
+
+    def __init__(self, signum: int | None = None) -> None:
+        self.signum = signum or signal.SIGINT
+        super().__init__(signal.Signals(self.signum).name)
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + int(self.signum)
+
+    def __reduce__(self):  # it may cross a process boundary
+        return (Interrupted, (int(self.signum),))
+
+
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_active: list[Stop] = []  # the Stops of the watches open in the main thread, outermost first
+_previous: dict = {}  # the handlers before the outermost watch
+
+
+_last_signal: list[int] = []
+
+
+def last_signal() -> int | None:
+    """The signal that last asked this process to stop (None: none did)."""
+    return _last_signal[-1] if _last_signal else None
+
+
+def _handler(signum, frame) -> None:
+    _last_signal.append(signum)
+    if any(s.reason == INTERRUPTED for s in _active):  # the second request: stop at once
+        _restore()
+        raise Interrupted(signum)
+    for s in _active:
+        s.request(INTERRUPTED, signum)
+
+
+def _restore() -> None:
+    for s, h in _previous.items():
+        signal.signal(s, h)
+    _previous.clear()
+
+
+@contextmanager
+def watch(time_limit: float | None = None, memory_limit: float | None = None):
+    """A Stop for the block. In the main thread the first Ctrl-C or SIGTERM requests a stop of
+    every watch open (a sweep and the solve inside it alike); a second one raises Interrupted
+    at once. Elsewhere (worker threads) signals cannot be caught and only the limits apply."""
+    stop = Stop(time_limit, memory_limit)
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    for outer in _active:  # a stop asked for before this watch opened still holds inside it
+        if outer.reason == INTERRUPTED:
+            stop.request(INTERRUPTED, outer.signal)
+    _active.append(stop)  # before the handler goes in: no signal can fall between the two
+    if len(_active) == 1:
+        _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
+        for s in _SIGNALS:
+            signal.signal(s, _handler)
+    try:
+        yield stop
+    finally:
+        _active.remove(stop)
+        if not _active:
+            _restore()
+
+
+def _forget_after_fork() -> None:
+    """A forked child (a pool worker) starts with no watch open and default handlers: the
+    parent's sweep and its stop state are not the child's."""
+    if _active:
+        for s, h in _previous.items():
+            signal.signal(s, h)
+    _active.clear()
+    _previous.clear()
+    _last_signal.clear()
+
+
+os.register_at_fork(after_in_child=_forget_after_fork)
