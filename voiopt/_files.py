@@ -7,24 +7,115 @@ import hashlib
 import json
 import os
 import re
+import sys
 import tempfile
 from collections.abc import Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from voiopt.errors import InstanceError, OptionError
+
+# Limits of every JSON file voiopt reads. A plan at the horizon cap (10**6 slots) has about
+# 10**6 lists and 3 * 10**6 commas and, pretty-printed inside a result, about 60 MB; the
+# limits leave room for that and keep the decoded objects of a hostile file of this size to
+# a few hundred MB (an instance file is far smaller: 10**4 sensors are about 3 MB).
+MAX_JSON_BYTES = 128 * 2**20
+MAX_JSON_DEPTH = 100  # an instance nests 4 levels, a result 6
+MAX_JSON_CONTAINERS = 2**21  # lists and objects
+MAX_JSON_ITEMS = 2**22  # commas, a bound on the number of values
+MAX_INT_DIGITS = 1000  # longer integers are kept as HugeInt (Python refuses > 4300 digits)
+
+# A JSON string, or an unterminated one up to the end of the text (so a match always
+# succeeds and the scan stays linear), and a run of anything that is not a bracket.
+_STRING = re.compile(r'"[^"\\]*(?:\\(?:.|\Z)[^"\\]*)*(?:"|\Z)', re.S)
+_NOT_BRACKETS = bytes(c for c in range(256) if chr(c) not in "[]{}")
+_HUGE = 10**MAX_INT_DIGITS
+
+
+class HugeInt(int):
+    """An integer literal of more than MAX_INT_DIGITS digits, kept as +-10**MAX_INT_DIGITS
+    (far beyond any cap and the float range) with its digit count, so that validation names
+    the field (``must be finite, got an integer of 5000 digits``) instead of the decoder
+    failing on Python's limit of 4300 digits."""
+
+    digits: int
+
+    def __new__(cls, text: str) -> HugeInt:
+        sign = -1 if text.startswith("-") else 1
+        obj = super().__new__(cls, sign * _HUGE)
+        obj.digits = len(text.lstrip("-"))
+        return obj
+
+
+def _parse_int(text: str) -> int:
+    return int(text) if len(text) <= MAX_INT_DIGITS else HugeInt(text)
 
 
 def _reject_constant(name: str) -> float:
     raise ValueError(f"{name} is not allowed")
 
 
+def _depth(brackets: bytes) -> int:
+    """The deepest nesting of a string of brackets, in C-speed chunks of 2**20."""
+    deepest = level = 0
+    data = np.frombuffer(brackets, dtype=np.uint8)
+    for i in range(0, len(data), 2**20):
+        chunk = data[i : i + 2**20]
+        steps = np.where((chunk == ord("[")) | (chunk == ord("{")), 1, -1).astype(np.int32)
+        levels = np.cumsum(steps, dtype=np.int64) + level
+        deepest, level = max(deepest, int(levels.max())), int(levels[-1])
+    return deepest
+
+
+def _check_size(text: str) -> str | None:
+    """Why ``text`` is too large or nested too deeply to decode, or None. Linear and cheap
+    (regular expressions and numpy, no Python loop over characters), and it does not rely on
+    the recursion limit: json's C decoder overflows the C stack, a segfault rather than a
+    RecursionError, when some library has raised the limit and the nesting is deep enough."""
+    if len(text) > MAX_JSON_BYTES:
+        return f"more than {MAX_JSON_BYTES} characters (the limit of a voiopt JSON file), got {len(text)}"
+    if text.count(",") > MAX_JSON_ITEMS:
+        return f"more than {MAX_JSON_ITEMS} values (a plan has about 3 per slot, at most 1000000 slots), got {text.count(',')} commas"
+    if text.count("[") + text.count("{") <= min(MAX_JSON_DEPTH, MAX_JSON_CONTAINERS):
+        return None
+    brackets = _STRING.sub("", text).encode("utf-8", "replace").translate(None, _NOT_BRACKETS)
+    opened = brackets.count(b"[") + brackets.count(b"{")
+    if opened > MAX_JSON_CONTAINERS:
+        return f"more than {MAX_JSON_CONTAINERS} lists and objects (a plan has one per slot, at most 1000000 slots), got {opened}"
+    depth = _depth(brackets)
+    if depth > MAX_JSON_DEPTH:
+        return f"nested more than {MAX_JSON_DEPTH} levels deep (a voiopt file nests at most 6), got {depth}"
+    return None
+
+
+def _decode(text: str) -> Any:
+    """json.loads, with integers of more than MAX_INT_DIGITS digits kept as HugeInt. The
+    hook is slow, so it is used only when the fast decoder refuses a long integer, or when
+    Python's limit on integer digits is off (then int() of a long literal is quadratic)."""
+    limit = getattr(sys, "get_int_max_str_digits", lambda: 0)()
+    if 0 < limit <= 10 * MAX_INT_DIGITS:
+        try:
+            return json.loads(text, parse_constant=_reject_constant)
+        except json.JSONDecodeError:
+            raise
+        except ValueError as e:
+            if "integer string conversion" not in str(e):
+                raise
+    return json.loads(text, parse_constant=_reject_constant, parse_int=_parse_int)
+
+
 def loads_json(text: str, error: type[Exception] = InstanceError, where: str = "") -> Any:
-    """Decode JSON; a syntax error names the line and column. NaN/Infinity are rejected."""
+    """Decode JSON; a syntax error names the line and column. NaN/Infinity are rejected;
+    texts too large or nested too deeply are refused before decoding (see the limits above)."""
     prefix = f"{where}: " if where else ""
+    why = _check_size(text)
+    if why:
+        raise error(f"{prefix}invalid JSON: {why}")
     try:
-        return json.loads(text, parse_constant=_reject_constant)
+        return _decode(text)
     except json.JSONDecodeError as e:
         raise error(f"{prefix}invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}") from None
     except RecursionError:
@@ -34,16 +125,24 @@ def loads_json(text: str, error: type[Exception] = InstanceError, where: str = "
 
 
 def read_json(path: str | os.PathLike, error: type[Exception] = InstanceError) -> Any:
-    """Read a JSON file; a syntax error names the file, line and column."""
+    """Read a JSON file; a syntax error names the file, line and column. At most
+    MAX_JSON_BYTES are read, so a huge file or a device such as /dev/zero is refused."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        with open(p, "rb") as f:
+            data = f.read(MAX_JSON_BYTES + 1)
     except FileNotFoundError:
         raise error(f"{p}: no such file") from None
     except IsADirectoryError:
         raise error(f"{p}: is a directory, not a JSON file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise error(f"{p}: cannot read: {e}") from None
+    except OSError as e:
+        raise error(f"{p}: cannot read: {e.strerror or e}") from None
+    if len(data) > MAX_JSON_BYTES:
+        raise error(f"{p}: invalid JSON: larger than {MAX_JSON_BYTES} bytes (the limit of a voiopt JSON file)")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise error(f"{p}: cannot read: not UTF-8 text (byte {e.start})") from None
     return loads_json(text, error, str(p))
 
 

@@ -50,8 +50,12 @@ def voi(aoi, distance, rho, power_w, channel: Channel):
     bn = channel.bandwidth_hz * noise_w_per_hz(channel) * np.asarray(distance, float) ** 2
     a_log_rho = aoi * np.log(rho)
     log_x = a_log_rho + np.log(pg) - np.log(bn + pg)
-    x = np.exp(log_x)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # Ages >= 1 give a_log_rho <= 0, so exp and expm1 cannot overflow; callers that tabulate
+    # ages <= 0 as well (and mask them, as models/uploads.py does) would otherwise print
+    # overflow warnings for a tiny rho.
+    with np.errstate(over="ignore"):
+        x = np.exp(log_x)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         small = -np.log1p(-np.minimum(x, 0.5))
         one_minus_rho_a = -np.expm1(a_log_rho)
         large = np.log(bn + pg) - np.log(bn + pg * one_minus_rho_a)

@@ -10,12 +10,27 @@ from typing import Any
 from voiopt import lattice
 from voiopt._files import read_json
 from voiopt.errors import PlanError
-from voiopt.instance import Instance
+from voiopt.instance import MAX_HORIZON, MAX_SENSORS, Instance, show
 
 
 def _num(v: float) -> float | int:
     """Integral floats as ints, so lattice points read [1, 0] rather than [1.0, 0.0]."""
     return int(v) if float(v).is_integer() and abs(v) < 2**53 else float(v)
+
+
+def _finite(c: Any) -> float | None:
+    """A coordinate as a float, or None if it is not a finite number (huge ints included)."""
+    if isinstance(c, bool) or not isinstance(c, (int, float)):
+        return None
+    try:
+        f = float(c)
+    except OverflowError:
+        return None
+    return f if math.isfinite(f) else None
+
+
+def _key(k: Any) -> str:
+    return k if isinstance(k, str) and k.isidentifier() and len(k) <= 40 else show(k, 40)
 
 
 @dataclass(frozen=True)
@@ -25,35 +40,40 @@ class Plan:
 
     @classmethod
     def from_dict(cls, d: Any) -> Plan:
-        """A plan object, or a whole result JSON whose ``plan`` is used."""
+        """A plan object, or a whole result JSON whose ``plan`` is used. Every message names
+        the field and shows the value briefly (``show``), however large or deep it is."""
         if isinstance(d, dict) and "plan" in d and "positions" not in d:
             d = d["plan"]
             where = "plan."
         else:
             where = ""
         if not isinstance(d, dict):
-            raise PlanError(f"plan: must be an object with positions and schedule, got {type(d).__name__}")
-        unknown = set(d) - {"positions", "schedule"}
+            raise PlanError(f"plan: must be an object with positions and schedule, got {show(d)}")
+        unknown = [k for k in d if k not in ("positions", "schedule")]
         if unknown:
-            raise PlanError(f"{where}{sorted(unknown)[0]}: unknown field (allowed: positions, schedule)")
+            raise PlanError(f"{where}{_key(unknown[0])}: unknown field (allowed: positions, schedule)")
         for key in ("positions", "schedule"):
-            if not isinstance(d.get(key), list):
-                raise PlanError(f"{where}{key}: must be a list, got {d.get(key)!r}")
+            v = d.get(key)
+            if not isinstance(v, list):
+                raise PlanError(f"{where}{key}: must be a list, got {show(v)}")
+            if len(v) > MAX_HORIZON:
+                raise PlanError(f"{where}{key}: must have at most {MAX_HORIZON} entries (the cap on the horizon), "
+                                f"got {len(v)}")
         positions = []
         for t, p in enumerate(d["positions"]):
-            ok = isinstance(p, list) and len(p) == 2 and all(
-                isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in p
-            )
-            if not ok:
-                raise PlanError(f"{where}positions[{t}]: must be a pair [x, y] of finite numbers, got {p!r}")
-            positions.append((float(p[0]), float(p[1])))
+            xy = [_finite(c) for c in p] if isinstance(p, list) and len(p) == 2 else None
+            if xy is None or None in xy:
+                raise PlanError(f"{where}positions[{t}]: must be a pair [x, y] of finite numbers, got {show(p)}")
+            positions.append((xy[0], xy[1]))
         schedule = []
-        for t, u in enumerate(d["schedule"]):
-            if isinstance(u, float) and u.is_integer():
-                u = int(u)
+        for t, v in enumerate(d["schedule"]):
+            u = int(v) if isinstance(v, float) and math.isfinite(v) and v.is_integer() else v
             if u is not None and (isinstance(u, bool) or not isinstance(u, int)):
-                raise PlanError(f"{where}schedule[{t}]: must be a sensor index or null, got {u!r}")
-            schedule.append(u)
+                raise PlanError(f"{where}schedule[{t}]: must be a sensor index or null, got {show(v)}")
+            if u is not None and not -MAX_SENSORS <= u < MAX_SENSORS:
+                raise PlanError(f"{where}schedule[{t}]: must be a sensor index or null, got {show(v)} "
+                                f"(an instance has at most {MAX_SENSORS} sensors)")
+            schedule.append(None if u is None else int(u))
         return cls(tuple(positions), tuple(schedule))
 
     def to_dict(self) -> dict[str, Any]:
