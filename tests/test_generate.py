@@ -71,3 +71,10 @@ def test_the_shipped_case_study_is_one_file_in_two_places():
         assert (root / "voiopt" / "data" / name).read_bytes() == (root / "instances" / name).read_bytes()
     assert voiopt.case_study() == voiopt.load(root / "instances" / "case-study.json")
     assert voiopt.evaluate(voiopt.case_study(), case_study_plan())["mean-min-voi"] > 0
+
+
+def test_an_area_beyond_the_lattice_cap_is_an_option_error_before_any_draw():
+    with pytest.raises(OptionError, match="more than 1000000 lattice points"):
+        voiopt.generate(2, 3, width=1e308)
+    with pytest.raises(OptionError, match="lattice points"):
+        voiopt.generate(2, 3, width=5, height=5, step=1e-4)

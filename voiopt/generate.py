@@ -86,6 +86,10 @@ def _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi) -
     for key, v in (("width", width), ("height", height), ("step", step), ("power", power_w)):
         if not (np.isfinite(v) and v > 0):
             raise OptionError(f"{key}: must be > 0, got {v!r}")
+    nx, ny = instance_mod.lattice_shape(width, height, step)
+    if not nx * ny <= instance_mod.MAX_LATTICE_POINTS:  # before drawing a start among them
+        raise OptionError(f"width, height, step: a {width:g} x {height:g} area with step {step:g} has more than "
+                          f"{instance_mod.MAX_LATTICE_POINTS} lattice points (the cap of instance.py)")
     lo, hi = rho
     if not (0 <= lo <= hi <= 1) or lo == hi in (0, 1):
         raise OptionError(f"rho: must be a range 0 <= lo <= hi <= 1 with points inside (0, 1), got {list(rho)}")

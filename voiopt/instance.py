@@ -179,9 +179,9 @@ class _Checker:
 
     def integer(self, d: dict, key: str, path: str, default: int | None, minimum: int,
                 maximum: tuple[int, str] | None = None) -> int | None:
+        v = d.get(key, default)
         if key not in d:
-            return default
-        v = d[key]
+            return v
         n = int(v) if isinstance(v, float) and math.isfinite(v) and v.is_integer() else v
         if isinstance(n, bool) or not isinstance(n, int):
             return self.fail(_join(path, key), f"must be an integer, got {show(v)}")

@@ -79,10 +79,14 @@ def load_instances(paths: Iterable[str | os.PathLike], notes: list[str] | None =
     return out
 
 
+def _count_option(value: int, flag: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise OptionError(f"{flag}: must be an integer >= 1, got {value!r}")
+    return value
+
+
 def check_workers(workers: int) -> int:
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise OptionError(f"--workers: must be an integer >= 1, got {workers!r}")
-    return workers
+    return _count_option(workers, "--workers")
 
 
 def check_methods(methods: Sequence[str]) -> list[str]:
@@ -97,9 +101,7 @@ def check_methods(methods: Sequence[str]) -> list[str]:
 
 
 def check_seeds(seeds: int) -> int:
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise OptionError(f"--seeds: must be an integer >= 1, got {seeds!r}")
-    return seeds
+    return _count_option(seeds, "--seeds")
 
 
 def method_options(method: str, **given: Any) -> dict[str, Any]:

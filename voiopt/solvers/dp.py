@@ -381,11 +381,15 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     passes = []
     # the fast passes use only the cheap bound: at the paper's scale the tight ones cost more than they save
     limits = dict(collapse=collapse, bounding=bounding, tdma=False, stop=stop)
-    if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
-        b = search(tab, inc(), beam=quick_beam, **limits)
-        passes.append((f"beam {quick_beam}", b))
+
+    def beam_pass(width: int) -> None:  # a heuristic pass: at most ``width`` labels per point
+        b = search(tab, inc(), beam=width, **limits)
+        passes.append((f"beam {width}", b))
         if b.plan is not None:
-            offer(Plan.from_indices(instance, *b.plan), f"beam {quick_beam}")
+            offer(Plan.from_indices(instance, *b.plan), f"beam {width}")
+
+    if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
+        beam_pass(quick_beam)
     out = search(tab, inc(), label_budget=fast_budget, progress=progress, **limits)
     passes.append(("fast", out))
     if not out.complete:
@@ -397,10 +401,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
             tab.with_pair_bound(min(PAIR_TABLE_BYTES, room))  # within the memory limit, with room for labels
         limits["tdma"] = tdma
         if beam > 0 and out.stopped == LABEL_BUDGET:
-            b = search(tab, inc(), beam=beam, **limits)
-            passes.append((f"beam {beam}", b))
-            if b.plan is not None:
-                offer(Plan.from_indices(instance, *b.plan), f"beam {beam}")
+            beam_pass(beam)
         if out.stopped == LABEL_BUDGET:
             out = search(tab, inc(), progress=progress, **limits)
             passes.append(("bounded", out))

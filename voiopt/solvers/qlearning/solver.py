@@ -18,13 +18,7 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate_indices
-from voiopt.solvers.base import (
-    DEFAULT_MEMORY_GB,
-    check_limits,
-    check_seed,
-    lattice_bytes,
-    require_memory,
-)
+from voiopt.solvers import base
 from voiopt.solvers.qlearning._kernels import rollout, train
 from voiopt.solvers.qlearning._qtable import QTable
 from voiopt.solvers.qlearning._rng import seed_state
@@ -73,7 +67,7 @@ def mdp_bytes(instance: Instance) -> float:
     """An upper bound on the bytes of the MDP's arrays (models/mdp.py) and the first Q-table."""
     N, n, T = instance.n_sensors, lattice_mod.n_points(instance), instance.horizon
     max_age = max(s.initial_aoi for s in instance.sensors) + T
-    return lattice_bytes(instance) + 8.0 * N * (max_age + 1) * (n + 1) + 3 * 8.0 * n * 5 * (N + 1) + 2**15 * 8 * (2 * N + 4)
+    return base.lattice_bytes(instance) + 8.0 * N * (max_age + 1) * (n + 1) + 3 * 8.0 * n * 5 * (N + 1) + 2**15 * 8 * (2 * N + 4)
 
 
 METHOD_OF_REWARD = {"voi": "qlearning", "aoi": "aoi-qlearning"}
@@ -84,13 +78,13 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
          time_limit: float | None, memory_limit: float, slot_in_state: bool, reward_units: str) -> Result:
     check_objective(objective)
     _check_options(episodes, seed, beta, gamma, q_init, penalty)
-    check_seed(seed)
-    check_limits(time_limit, memory_limit)
+    base.check_seed(seed)
+    base.check_limits(time_limit, memory_limit)
     mdp_mod.check_reward_units(reward_units)
     if not isinstance(slot_in_state, bool):
         raise OptionError(f"slot_in_state: must be true or false, got {slot_in_state!r}")
     method = METHOD_OF_REWARD[reward]
-    require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
+    base.require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
     startup_s = warm_up()
     with watch(time_limit, memory_limit) as stop:
         model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
@@ -140,7 +134,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
 def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = False,
           episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
           q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY, time_limit: float | None = None,
-          memory_limit: float = DEFAULT_MEMORY_GB, slot_in_state: bool = False, reward_units: str = "bit/s") -> Result:
+          memory_limit: float = base.DEFAULT_MEMORY_GB, slot_in_state: bool = False, reward_units: str = "bit/s") -> Result:
     """The paper's "VoI-optimal" scheme: Algorithm 1 with reward min_i V_i - idle penalty.
 
     Options default to the paper's values: V in bit/s and a penalty of 100 (MODEL.md section 7);
@@ -153,7 +147,7 @@ def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = Fals
 def solve_aoi(instance: Instance, objective: str = AOI_DEFAULT, *, progress: bool = False,
               episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
               q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY,
-              time_limit: float | None = None, memory_limit: float = DEFAULT_MEMORY_GB,
+              time_limit: float | None = None, memory_limit: float = base.DEFAULT_MEMORY_GB,
               slot_in_state: bool = False, reward_units: str = "bit/s") -> Result:
     """The paper's "AoI-optimal" scheme: Algorithm 1 with reward -max_i A_i - idle penalty.
 
