@@ -216,9 +216,21 @@ def check_output_file(path: str | os.PathLike, what: str = "-o/--output") -> Pat
     parent = p.parent
     if not parent.is_dir():
         raise OptionError(f"{what}: the folder {str(parent)!r} of {str(p)!r} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+    if (p.exists() and not os.access(p, os.W_OK)) or not _can_create_in(parent):
         raise OptionError(f"{what}: {str(p)!r} cannot be written (no permission)")
     return p
+
+
+def _can_create_in(folder: Path) -> bool:
+    """Can a file be made in this folder? Tried for real (permissions, read-only or special
+    file systems: os.access says yes to root where a write would fail)."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".voiopt-check.", dir=folder)
+    except OSError:
+        return False
+    os.close(fd)
+    os.unlink(tmp)
+    return True
 
 
 def check_output_dir(path: str | os.PathLike, what: str = "-o/--output") -> Path:
@@ -227,11 +239,11 @@ def check_output_dir(path: str | os.PathLike, what: str = "-o/--output") -> Path
     if p.exists() and not p.is_dir():
         raise OptionError(f"{what}: {str(p)!r} is a file, not a folder")
     if p.is_dir():
-        if not os.access(p, os.W_OK | os.X_OK):
+        if not _can_create_in(p):
             raise OptionError(f"{what}: the folder {str(p)!r} cannot be written (no permission)")
         return p
     if not p.parent.is_dir():
         raise OptionError(f"{what}: the folder {str(p.parent)!r} of {str(p)!r} does not exist")
-    if not os.access(p.parent, os.W_OK | os.X_OK):
+    if not _can_create_in(p.parent):
         raise OptionError(f"{what}: the folder {str(p)!r} cannot be made in {str(p.parent)!r} (no permission)")
     return p

@@ -319,7 +319,7 @@ def main(argv: list[str] | None = None) -> int:
     except VoioptError as e:
         err.print(f"voiopt: error: {e}", markup=False)
         return 2
-    except WorkerDied as e:
+    except (WorkerDied, OSError) as e:  # a worker killed; a disk full or gone after the checks
         err.print(f"voiopt: error: {e}", markup=False)
         return 1
     except KeyboardInterrupt as e:  # a sweep stopped as a whole, or a second Ctrl-C
