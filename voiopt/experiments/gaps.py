@@ -15,19 +15,17 @@ from voiopt.experiments.runner import (
     Task,
     check_manifest,
     check_methods,
-    check_seeds,
-    check_workers,
     load_instances,
     method_tasks,
+    run_options,
     run_tasks,
 )
 from voiopt.instance import Instance
-from voiopt.models.mdp import check_reward_units
 from voiopt.objectives import check_objective
 from voiopt.plots import plot_gaps
 from voiopt.result import Result, load_result
 from voiopt.solvers import RANDOMISED
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
+from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
 GAP_COLUMNS = ["instance", "method", "seed", "objective", "status", "value", "bound", "best_value", "best_bound",
                "gap", "runtime_s", "cause"]
@@ -177,15 +175,11 @@ def gap_report(
     for the user (files skipped)."""
     check_objective(objective)
     methods = check_methods(methods)
-    check_seeds(seeds)
-    check_reward_units(reward_units)
-    check_limits(time_limit, memory_limit)
-    check_workers(workers)
+    options = run_options(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes,
+                          reward_units=reward_units, seeds=seeds, workers=workers)
     out = check_output_dir(out_dir)
     notes = [] if notes is None else notes
     instances_found = load_instances(instances, notes)
-    options = dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
-                   threads=1)
     tasks = plan_tasks(instances_found, methods, objective, out, seed=seed, seeds=seeds, **options)
     check_manifest(out, {"command": "gap-report", "objective": objective, "seed": seed, "seeds": seeds, **options})
     run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="runs")

@@ -16,23 +16,21 @@ from typing import Any
 
 from voiopt import instance as instance_mod
 from voiopt._files import atomic_write, check_output_dir, read_csv, safe_name, write_csv
-from voiopt.errors import OptionError
 from voiopt.experiments.runner import (
     check_manifest,
-    check_seeds,
-    check_workers,
+    count_option,
     method_tasks,
+    run_options,
     run_tasks,
 )
 from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance
-from voiopt.models.mdp import check_reward_units
 from voiopt.objectives import DEFAULT as OBJECTIVE
 from voiopt.objectives import OBJECTIVES
 from voiopt.plots import SCHEMES, case_study_figures, plot_sweep
 from voiopt.result import Result, load_result
 from voiopt.solvers import RANDOMISED
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
+from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
 
 @dataclass(frozen=True)
@@ -126,15 +124,10 @@ def make_figures(
     case_study_instance: Instance | None = None,
 ) -> list[Path]:
     """Reproduce Figs. 3-7 with the proven optimum; return the files written."""
-    if isinstance(networks, bool) or not isinstance(networks, int) or networks < 1:
-        raise OptionError(f"--networks: must be an integer >= 1, got {networks!r}")
-    check_seeds(seeds)
-    check_reward_units(reward_units)
-    check_limits(time_limit, memory_limit)
-    check_workers(workers)
+    count_option(networks, "--networks")
+    opts = run_options(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes,
+                       reward_units=reward_units, seeds=seeds, workers=workers)
     out = check_output_dir(out_dir, "--out")
-    opts = dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
-                threads=1)
     check_manifest(out, {"command": "figures", "networks": networks, "seed": seed, "seeds": seeds, **opts}, "--out")
 
     # the case study (Figs. 3 and 4): the plans drawn are those of the first seed

@@ -24,9 +24,11 @@ from voiopt import instance as instance_mod
 from voiopt._files import read_json, safe_name, write_json_atomic
 from voiopt.errors import MissingExtraError, OptionError, VoioptError
 from voiopt.instance import Instance
+from voiopt.models.mdp import check_reward_units
 from voiopt.progress import progress_bar
 from voiopt.result import Result, load_result
 from voiopt.solvers import METHODS, RANDOMISED, solver_function
+from voiopt.solvers.base import check_limits
 from voiopt.stop import INTERRUPTED, Interrupted, watch
 
 
@@ -79,14 +81,14 @@ def load_instances(paths: Iterable[str | os.PathLike], notes: list[str] | None =
     return out
 
 
-def _count_option(value: int, flag: str) -> int:
+def count_option(value: int, flag: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise OptionError(f"{flag}: must be an integer >= 1, got {value!r}")
     return value
 
 
 def check_workers(workers: int) -> int:
-    return _count_option(workers, "--workers")
+    return count_option(workers, "--workers")
 
 
 def check_methods(methods: Sequence[str]) -> list[str]:
@@ -101,7 +103,18 @@ def check_methods(methods: Sequence[str]) -> list[str]:
 
 
 def check_seeds(seeds: int) -> int:
-    return _count_option(seeds, "--seeds")
+    return count_option(seeds, "--seeds")
+
+
+def run_options(*, time_limit: float | None, memory_limit: float, episodes: int | None, reward_units: str,
+                seeds: int, workers: int) -> dict[str, Any]:
+    """Check the options every sweep shares; return those each run receives (one thread each)."""
+    check_seeds(seeds)
+    check_reward_units(reward_units)
+    check_limits(time_limit, memory_limit)
+    check_workers(workers)
+    return dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
+                threads=1)
 
 
 def method_options(method: str, **given: Any) -> dict[str, Any]:
