@@ -17,7 +17,7 @@ from voiopt import objectives
 from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
 from voiopt.plan import Plan
-from voiopt.simulate import check_plan, simulate_indices
+from voiopt.simulate import simulate_indices
 from voiopt.stop import GB
 
 DEFAULT_MEMORY_GB = 4.0  # every method's memory limit unless told otherwise
@@ -87,10 +87,6 @@ class Incumbent:
         if self.value is None or objectives.better(self.objective, value, self.value):
             self.idx, self.sched, self.value, self.source = idx, sched, value, source
         return value
-
-    def offer_plan(self, plan: Plan, source: str) -> float:
-        """The same for a Plan (checked: a PlanError if it does not fit the instance)."""
-        return self.offer(*check_plan(self.instance, plan), source)
 
     @property
     def plan(self) -> Plan | None:
