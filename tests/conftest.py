@@ -37,3 +37,33 @@ def tiny_instances(count: int = 30, seed: int = 12345) -> list[voiopt.Instance]:
 @pytest.fixture(scope="session")
 def case_study():
     return voiopt.load(ROOT / "instances" / "case-study.json")
+
+
+def field_instances(count: int = 24, seed: int = 777) -> list[voiopt.Instance]:
+    """Tiny networks with the fields of MODEL.md section 9, each case making one of them (or
+    all) bind: random blocked points, an end point, a move budget. Only instances the model
+    admits are kept (the loader's BFS decides; the oracle's check_instance must agree)."""
+    import random
+
+    rng = random.Random(seed)
+    out = []
+    for k, base in enumerate(tiny_instances(4 * count, seed)):
+        if len(out) == count:
+            break
+        d = base.to_dict()
+        nx, ny = int(base.width) + 1, int(base.height) + 1
+        points = [[x, y] for x in range(nx) for y in range(ny) if [x, y] != list(map(int, base.start))]
+        which = k % 4  # 0: blocked, 1: end, 2: max_moves, 3: all three
+        if which in (0, 3):
+            d["blocked"] = rng.sample(points, rng.randint(1, max(1, len(points) // 3)))
+        if which in (1, 3):
+            free = [p for p in points if p not in d.get("blocked", [])]
+            d["end"] = rng.choice(free + [list(map(int, base.start))])
+        if which in (2, 3):
+            d["max_moves"] = rng.randint(0, base.horizon - 1)
+        d["name"] = f"field-{k:02d}"
+        try:
+            out.append(voiopt.instance.from_dict(d))
+        except voiopt.errors.InstanceError:
+            continue
+    return out

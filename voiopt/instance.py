@@ -13,8 +13,8 @@ factory floors, and they keep every derived number finite:
   per age, so an initial AoI of 10**9 would ask it for gigabytes per sensor);
 - at most 10**6 lattice points, counted from width / step and height / step without building
   anything (and without overflow); at most 10**4 sensors; at most 2 * 10**6 sensor-point
-  pairs, so the lattice (72 bytes a point and 9 more a point and sensor, ``lattice.build``)
-  needs at most 90 MB;
+  pairs, so the lattice (73 bytes a point, 8 more with an ``end``, 9 more a point and sensor, ``lattice.build``)
+  needs at most 100 MB;
 - ``g0_db`` and ``noise_dbm_per_hz`` in [-3000, 3000] dB, so g0 = 10^(g0_db/10) and
   N0 = 10^(noise/10)/1000 are finite and > 0; B * N0 and P_i * g0 in [1e-300, 1e300] W;
   B <= 1e300 Hz (VoI is at most 53 B bit/s, as -log2(1 - rho) <= 53 for a float rho < 1,
@@ -27,14 +27,16 @@ factory floors, and they keep every derived number finite:
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from voiopt._checker import Checker as _Checker
+from voiopt._checker import _join, show
 from voiopt._files import loads_json, read_json, write_json_atomic
 from voiopt.errors import InstanceError
 
@@ -49,7 +51,6 @@ MAX_DB = 3000.0  # |g0_db|, |noise_dbm_per_hz|
 MIN_LINEAR, MAX_LINEAR = 1e-300, 1e300  # B * N0, P * g0 and B * N0 * d^2 [W]; the SNR at any distance
 MAX_BANDWIDTH_HZ = 1e300
 MAX_NAME = 200
-MAX_ERRORS = 20  # violations kept in all_errors; the rest are counted
 
 
 @dataclass(frozen=True)
@@ -79,10 +80,18 @@ class Instance:
     sensors: tuple[Sensor, ...]
     step: float = 1.0
     channel: Channel = field(default_factory=Channel)
+    blocked: tuple[tuple[float, float], ...] = ()  # MODEL.md section 9: points never stood on
+    end: tuple[float, float] | None = None  # the point of the last slot, positions[T-1]
+    max_moves: int | None = None  # at most this many slots with a change of position
 
     @property
     def n_sensors(self) -> int:
         return len(self.sensors)
+
+    @property
+    def has_field_rules(self) -> bool:
+        """Any of the optional rules of MODEL.md section 9 is given."""
+        return bool(self.blocked) or self.end is not None or self.max_moves is not None
 
     def initial_distance(self, i: int) -> float:
         q = self.sensors[i].initial_distance
@@ -90,7 +99,7 @@ class Instance:
 
     def to_dict(self) -> dict[str, Any]:
         c = self.channel
-        return {
+        d = {
             "name": self.name,
             "area": {"width": self.width, "height": self.height},
             "step": self.step,
@@ -113,6 +122,13 @@ class Instance:
                 for i, s in enumerate(self.sensors)
             ],
         }
+        if self.blocked:  # section 9's fields only when given: the paper's files stay as they were
+            d["blocked"] = [list(b) for b in self.blocked]
+        if self.end is not None:
+            d["end"] = list(self.end)
+        if self.max_moves is not None:
+            d["max_moves"] = self.max_moves
+        return d
 
     def replace(self, **changes: Any) -> Instance:
         """A copy with some fields changed, validated again."""
@@ -120,158 +136,6 @@ class Instance:
         for key, value in changes.items():
             d[key] = value
         return from_dict(d)
-
-
-# ----------------------------------------------------------------------------- validation
-
-
-class _Checker:
-    """Collects every violated rule, so one run reports them all (the first is raised).
-    At most MAX_ERRORS messages are kept; the rest are only counted."""
-
-    def __init__(self) -> None:
-        self.errors: list[str] = []
-        self.dropped = 0
-
-    def fail(self, path: str, message: str) -> None:
-        """Record a violated rule (returns None, the value of a field that failed)."""
-        if len(self.errors) < MAX_ERRORS:
-            self.errors.append(f"{path}: {message}")
-        else:
-            self.dropped += 1
-
-    def obj(self, value: Any, path: str, allowed: set[str] | frozenset[str], required: Any) -> dict | None:
-        if not isinstance(value, dict):
-            self.fail(path or "instance", f"must be an object, got {show(value)}")
-            return None
-        for key in value:
-            if key not in allowed:
-                self.fail(_join(path, key), f"unknown field (allowed: {', '.join(sorted(allowed))})")
-        for key in sorted(required):
-            if key not in value:
-                self.fail(_join(path, key), "is required")
-        return value
-
-    def number(self, d: dict, key: str, path: str, default: float | None = None, *, positive: bool = False,
-               nonnegative: bool = False, open01: bool = False, within: tuple[float, float, str] | None = None,
-               at_most: tuple[float, str] | None = None) -> float | None:
-        if key not in d:
-            return default
-        v = d[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            return self.fail(_join(path, key), f"must be a number, got {show(v)}")
-        f = _to_float(v)
-        if not math.isfinite(f):
-            rule = "must be finite"
-        elif positive and not f > 0:
-            rule = "must be > 0"
-        elif nonnegative and not f >= 0:
-            rule = "must be >= 0"
-        elif open01 and not 0 < f < 1:
-            rule = "must be in (0, 1)"
-        elif within is not None and not within[0] <= f <= within[1]:
-            rule = f"must be in [{within[0]:g}, {within[1]:g}]{within[2]}"
-        elif at_most is not None and not f <= at_most[0]:
-            rule = f"must be <= {at_most[0]:g}{at_most[1]}"
-        else:
-            return f
-        return self.fail(_join(path, key), f"{rule}, got {show(v)}")
-
-    def integer(self, d: dict, key: str, path: str, default: int | None, minimum: int,
-                maximum: tuple[int, str] | None = None) -> int | None:
-        v = d.get(key, default)
-        if key not in d:
-            return v
-        n = int(v) if isinstance(v, float) and math.isfinite(v) and v.is_integer() else v
-        if isinstance(n, bool) or not isinstance(n, int):
-            return self.fail(_join(path, key), f"must be an integer, got {show(v)}")
-        if n < minimum:
-            return self.fail(_join(path, key), f"must be an integer >= {minimum}, got {show(v)}")
-        if maximum is not None and n > maximum[0]:
-            return self.fail(_join(path, key), f"must be an integer <= {maximum[0]}{maximum[1]}, got {show(v)}")
-        return int(n)
-
-    def point(self, d: dict, key: str, path: str) -> tuple[float, float] | None:
-        v = d.get(key)
-        if not isinstance(v, (list, tuple)) or len(v) != 2:
-            self.fail(_join(path, key), f"must be a pair [x, y], got {show(v)}")
-            return None
-        x, y = v
-        for j, c in enumerate(v):
-            if isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(_to_float(c)):
-                self.fail(f"{_join(path, key)}[{j}]", f"must be a finite number, got {show(c)}")
-                return None
-        return (float(x), float(y))
-
-
-def _to_float(v: int | float) -> float:
-    """float(v), or +-inf for an integer beyond the float range (float() would raise)."""
-    try:
-        return float(v)
-    except OverflowError:
-        return math.inf if v > 0 else -math.inf
-
-
-_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-
-
-def _join(path: str, key: Any) -> str:
-    """``path.key``; a key that is not a plain name (a hostile file's "a\\nb") is quoted, so a
-    message stays one short line."""
-    if not (isinstance(key, str) and _IDENTIFIER.fullmatch(key) and len(key) <= 40):
-        key = show(key, 40)
-    return f"{path}.{key}" if path else key
-
-
-def show(v: Any, limit: int = 60) -> str:
-    """A value as it appears in a message: JSON-like, at most ``limit`` characters, cheap for
-    huge or deeply nested values (it stops rendering once the text is long enough)."""
-    parts, size = [], 0
-    for token in _tokens(v, limit):
-        parts.append(token)
-        size += len(token)
-        if size > limit:
-            break
-    text = "".join(parts)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
-def _show_int(v: int) -> str:
-    sign = "a negative" if v < 0 else "an"
-    digits = getattr(v, "digits", None)  # _files.HugeInt: a literal of over 1000 digits
-    if digits is not None:
-        return f"{sign} integer of {digits} digits"
-    if abs(v) < 10**60:
-        return str(v)
-    if v.bit_length() < 13000:  # str() refuses more than 4300 digits
-        return f"{sign} integer of {len(str(abs(v)))} digits"
-    return f"{sign} integer of about {int(v.bit_length() * math.log10(2)) + 1} digits"
-
-
-def _tokens(v: Any, limit: int):
-    if v is None:
-        yield "null"
-    elif isinstance(v, bool):
-        yield "true" if v else "false"
-    elif isinstance(v, int):
-        yield _show_int(v)
-    elif isinstance(v, float):
-        yield "NaN" if math.isnan(v) else ("Infinity" if v > 0 else "-Infinity") if math.isinf(v) else repr(float(v))
-    elif isinstance(v, str):
-        yield json.dumps(v[: limit + 1])
-    elif isinstance(v, (list, tuple, dict)):
-        items = v.items() if isinstance(v, dict) else enumerate(v)
-        yield "{" if isinstance(v, dict) else "["
-        for n, (k, x) in enumerate(items):
-            if n:
-                yield ", "
-            if isinstance(v, dict):
-                yield from _tokens(k, limit)
-                yield ": "
-            yield from _tokens(x, limit)
-        yield "}" if isinstance(v, dict) else "]"
-    else:
-        yield repr(v)[: limit + 1]
 
 
 def on_lattice(x: float, step: float) -> bool:
@@ -350,7 +214,7 @@ _SENSOR_REQUIRED = ("position", "rho")
 def from_dict(d: Any, source: str = "") -> Instance:
     """Validate a decoded instance JSON object; raise InstanceError naming the first bad field."""
     ck = _Checker()
-    top = {"name", "area", "step", "horizon", "start", "channel", "sensors"}
+    top = {"name", "area", "step", "horizon", "start", "channel", "sensors", "blocked", "end", "max_moves"}
     d = ck.obj(d, "", top, {"area", "horizon", "start", "sensors"})
     if d is None:
         _raise(ck, source)
@@ -372,17 +236,11 @@ def from_dict(d: Any, source: str = "") -> Instance:
         ch = ck.obj(d["channel"], "channel", {"g0_db", "bandwidth_hz", "noise_dbm_per_hz", "d_th"}, set())
         channel = None if ch is None else _check_channel(ck, ch)
 
-    start = None
-    if "start" in d:
-        start = ck.point(d, "start", "")
-        if start is not None and n_points is not None:
-            x, y = start
-            if not (-LATTICE_TOL <= x <= width + LATTICE_TOL and -LATTICE_TOL <= y <= height + LATTICE_TOL):
-                ck.fail("start", f"must lie in the area [0, {width:g}] x [0, {height:g}], got {show(list(start))}")
-            elif not (on_lattice(x, step) and on_lattice(y, step)):
-                ck.fail("start", f"must be a lattice point (multiples of step {step:g}), got {show(list(start))}")
-            else:
-                start = (round(x / step) * step, round(y / step) * step)
+    area_ok = n_points is not None
+    start = _lattice_point(ck, d, "start", "", width, height, step, area_ok) if "start" in d else None
+    end = _lattice_point(ck, d, "end", "", width, height, step, area_ok) if "end" in d else None
+    blocked = _check_blocked(ck, d["blocked"], width, height, step, area_ok, n_points) if "blocked" in d else ()
+    max_moves = ck.integer(d, "max_moves", "", None, 0)
 
     sensors: list[Sensor] = []
     raw = d.get("sensors")
@@ -439,9 +297,80 @@ def from_dict(d: Any, source: str = "") -> Instance:
         ck.fail("sensors", f"must make at most {MAX_SENSOR_POINTS} sensor-lattice point pairs (the lattice's distance "
                            f"tables), but {len(raw)} sensors on {n_points} lattice points make {len(raw) * n_points}")
 
+    if not ck.errors and (blocked or end is not None):
+        _check_route(ck, width, height, step, horizon, start, end, blocked, max_moves)
     if ck.errors:
         _raise(ck, source)
-    return Instance(name, width, height, horizon, start, tuple(sensors), step, channel)
+    return Instance(name, width, height, horizon, start, tuple(sensors), step, channel, blocked, end, max_moves)
+
+
+def _xy(p: tuple[float, float]) -> str:
+    """A point as a message shows it: [4, 4], [0.5, 1]."""
+    return f"[{p[0]:g}, {p[1]:g}]"
+
+
+def _lattice_point(ck: _Checker, d: dict, key: str, path: str, width, height, step, area_ok: bool,
+                   what: str | None = None) -> tuple[float, float] | None:
+    """A lattice point inside the area (snapped to the lattice), or None and a failure."""
+    where = what or _join(path, key)
+    point = ck.point(d, key, path, where)
+    if point is None or not area_ok:
+        return None
+    x, y = point
+    if not (-LATTICE_TOL <= x <= width + LATTICE_TOL and -LATTICE_TOL <= y <= height + LATTICE_TOL):
+        return ck.fail(where, f"must lie in the area [0, {width:g}] x [0, {height:g}], got {show(list(point))}")
+    if not (on_lattice(x, step) and on_lattice(y, step)):
+        return ck.fail(where, f"must be a lattice point (multiples of step {step:g}), got {show(list(point))}")
+    return (round(x / step) * step, round(y / step) * step)
+
+
+def _check_blocked(ck: _Checker, raw: Any, width, height, step, area_ok: bool,
+                   n_points: int | None) -> tuple[tuple[float, float], ...]:
+    """MODEL.md section 9: a list of distinct lattice points inside the area."""
+    if not isinstance(raw, list):
+        ck.fail("blocked", f"must be a list of lattice points [x, y], got {show(raw)}")
+        return ()
+    if n_points is not None and len(raw) >= n_points:
+        ck.fail("blocked", f"must leave some of the {n_points} lattice points free, got {len(raw)} blocked points")
+        return ()
+    out, seen = [], {}
+    for j, v in enumerate(raw):
+        p = _lattice_point(ck, {"p": v}, "p", "", width, height, step, area_ok, what=f"blocked[{j}]")
+        if p is None:
+            continue
+        key = (round(p[0] / step), round(p[1] / step))
+        if key in seen:
+            ck.fail(f"blocked[{j}]", f"{_xy(p)} is listed twice (also blocked[{seen[key]}])")
+            continue
+        seen[key] = j
+        out.append(p)
+    return tuple(out)
+
+
+def _check_route(ck: _Checker, width, height, step, horizon, start, end, blocked, max_moves) -> None:
+    """Start and end are free, and some legal plan exists: ``end`` is within reach of start
+    in at most T - 1 moves and max_moves, around the blocked points (a BFS, _grid.steps)."""
+    from voiopt import _grid
+
+    nx, ny = lattice_shape(width, height, step)
+    index = lambda p: round(p[0] / step) * ny + round(p[1] / step)  # noqa: E731
+    mask = np.zeros(nx * ny, dtype=bool)
+    mask[[index(b) for b in blocked]] = True
+    for j, b in enumerate(blocked):
+        for name, p in (("start", start), ("end", end)):
+            if p is not None and index(b) == index(p):
+                ck.fail(f"blocked[{j}]", f"{_xy(b)} is the {name} point, which must stay free")
+    if ck.errors or end is None:
+        return
+    moves = _grid.steps(nx, ny, mask, index(start))[index(end)]
+    allowed = horizon - 1 if max_moves is None else min(horizon - 1, max_moves)
+    why = f"horizon {horizon} allows {horizon - 1}" if allowed == horizon - 1 else f"max_moves is {max_moves}"
+    around = " around the blocked points" if blocked else ""
+    if moves >= _grid.UNREACHABLE:
+        ck.fail("end", f"{_xy(end)} is not reachable from start {_xy(start)}: the blocked points wall it off")
+    elif moves > allowed:
+        ck.fail("end", f"{_xy(end)} is not reachable within {allowed} moves ({why}): it is {moves} moves "
+                       f"from start {_xy(start)}{around}")
 
 
 def _raise(ck: _Checker, source: str) -> None:

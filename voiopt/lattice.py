@@ -8,9 +8,11 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from voiopt import _grid
 from voiopt.instance import LATTICE_TOL, Instance, lattice_shape
 
 MOVES = np.array([(0, 0), (0, 1), (0, -1), (1, 0), (-1, 0)], dtype=np.int64)
@@ -27,10 +29,16 @@ class Lattice:
     start: int  # index of the start point
     distance: np.ndarray  # (N, n) distance from each sensor to each point
     in_range: np.ndarray  # (N, n) bool: distance <= d_th
+    horizon: int  # T
+    blocked: np.ndarray  # (n,) bool: points never stood on (MODEL.md section 9)
+    end: int  # index of the end point, or -1 if the instance has none
+    budget: int  # the most moves a plan can make: min(max_moves, T - 1)
+    to_end: np.ndarray  # (n,) fewest moves to end around blocked points (0 everywhere without an end)
 
     @property
     def n_points(self) -> int:
         return self.nx * self.ny
+
 
     def index(self, x: float, y: float) -> int | None:
         """Index of the lattice point (x, y), or None if it is not one."""
@@ -44,13 +52,41 @@ class Lattice:
             return None
         return k * self.ny + l
 
-    def steps_from(self, p: int) -> np.ndarray:
-        """Fewest moves from point p to every point (Manhattan distance on the full grid)."""
-        return np.abs(self.coords - self.coords[p]).sum(axis=1)
+    @cached_property
+    def from_start(self) -> np.ndarray:
+        """(n,) fewest moves from start around blocked points (computed when first asked)."""
+        out = self.steps_from(self.start)
+        out.setflags(write=False)
+        return out
+
+    @property
+    def has_blocked(self) -> bool:
+        return bool(self.blocked.any())
+
+    def steps_from(self, p) -> np.ndarray:
+        """Fewest moves from point p (or the nearest of several points) to every point, around
+        blocked points: the Manhattan distance on an open lattice; _grid.UNREACHABLE where
+        there is no way."""
+        return _grid.steps(self.nx, self.ny, self.blocked if self.has_blocked else None, p)
+
+    def on_some_plan(self, t) -> np.ndarray:
+        """Bool mask (or (len(t), n) for an array of slots) of the points the entity can stand on
+        in slot t of some legal plan: reached from start in <= t moves, with end still reachable
+        in the slots left, and the two legs within the budget."""
+        t = np.asarray(t)[..., None]
+        d0, d1 = self.from_start, self.to_end
+        ok = (d0 <= t) & (d1 <= self.horizon - 1 - t)
+        return ok & ((d0 + d1 <= self.budget) if self.end >= 0 else (d0 <= self.budget))
 
     def reachable(self, t: int) -> np.ndarray:
-        """Bool mask of the points the entity can stand on in slot t."""
-        return self.steps_from(self.start) <= t
+        """Bool mask of the points within t moves of start, around blocked points."""
+        return self.from_start <= t
+
+    def can_finish(self, q: np.ndarray | int, t: int, moves_used) -> np.ndarray | bool:
+        """Whether standing on q in slot t after ``moves_used`` moves still leaves a legal way
+        to end (within the slots left and the budget): the mask of section 9's rules."""
+        left = np.minimum(self.horizon - 1 - t, self.budget - np.asarray(moves_used))
+        return (self.to_end[q] <= left) & (np.asarray(moves_used) <= self.budget)
 
 
 def n_points(instance: Instance) -> int:
@@ -77,7 +113,7 @@ def unservable_sensors(instance: Instance) -> list[int]:
 
 
 # build() keeps recent lattices, like an lru_cache, but bounded in bytes too: one lattice can
-# take up to 90 MB (the caps of instance.py), and 64 of those would not fit.
+# take up to 100 MB (the caps of instance.py), and 64 of those would not fit.
 _CACHE: OrderedDict[Instance, Lattice] = OrderedDict()
 _CACHE_ENTRIES = 64
 _CACHE_BYTES = 256 * 2**20
@@ -85,7 +121,8 @@ _LOCK = threading.Lock()
 
 
 def _nbytes(lat: Lattice) -> int:
-    return sum(a.nbytes for a in (lat.coords, lat.points, lat.neighbors, lat.distance, lat.in_range))
+    return sum(a.nbytes for a in (lat.coords, lat.points, lat.neighbors, lat.distance, lat.in_range, lat.blocked,
+                                  lat.to_end))
 
 
 def build(instance: Instance) -> Lattice:
@@ -108,7 +145,7 @@ build.cache_clear = _CACHE.clear  # as with lru_cache
 
 def _build(instance: Instance) -> Lattice:
     """Every array is written in place, so the peak memory is the lattice itself plus a few
-    MB (72 bytes a point, 9 more a point and sensor: at most 90 MB within the caps)."""
+    MB (73 bytes a point, 8 more with an end, 9 more a point and sensor: at most 100 MB within the caps)."""
     step = instance.step
     nx, ny = lattice_shape(instance.width, instance.height, step)
     n = nx * ny
@@ -139,6 +176,19 @@ def _build(instance: Instance) -> Lattice:
             np.hypot(points[None, b:e, 0] - pos[i : i + rows, 0, None], points[None, b:e, 1] - pos[i : i + rows, 1, None],
                      out=distance[i : i + rows, b:e])
     in_range = distance <= instance.channel.d_th + LATTICE_TOL
-    for arr in (coords, points, neighbors, distance, in_range):
+    blocked = np.zeros(n, dtype=bool)
+    for bx, by in instance.blocked:
+        blocked[round(bx / step) * ny + round(by / step)] = True
+    if blocked.any():  # a move into a blocked point is illegal like one off the area
+        neighbors[blocked] = -1
+        neighbors[blocked[np.maximum(neighbors, 0)] & (neighbors >= 0)] = -1
+    end = -1
+    to_end = np.broadcast_to(np.int64(0), (n,))  # no end: zero moves left to make, and no memory
+    if instance.end is not None:
+        end = round(instance.end[0] / step) * ny + round(instance.end[1] / step)
+        to_end = _grid.steps(nx, ny, blocked if blocked.any() else None, end)
+    T = instance.horizon
+    budget = T - 1 if instance.max_moves is None else min(T - 1, instance.max_moves)
+    for arr in (coords, points, neighbors, distance, in_range, blocked, to_end):
         arr.setflags(write=False)
-    return Lattice(step, nx, ny, coords, points, neighbors, start, distance, in_range)
+    return Lattice(step, nx, ny, coords, points, neighbors, start, distance, in_range, T, blocked, end, budget, to_end)

@@ -46,6 +46,8 @@ def check_plan(instance: Instance, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
             why = "is not a lattice point" if inside else "is outside the area"
             raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] {why} (step {instance.step:g}, area {instance.width:g} x {instance.height:g})")
         idx[t] = p
+        if lat.blocked[p]:
+            raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] is a blocked point (blocked points may never be stood on)")
     if idx[0] != lat.start:
         x, y = plan.positions[0]
         raise PlanError(f"positions[0]: must equal start {list(instance.start)}, got [{x:g}, {y:g}]")
@@ -55,6 +57,7 @@ def check_plan(instance: Instance, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
             raise PlanError(
                 f"positions[{t}]: [{x1:g}, {y1:g}] is not one N/S/E/W step (or stay) from positions[{t-1}] [{x0:g}, {y0:g}]"
             )
+    _check_field_rules(instance, plan, idx)
     sched = np.full(T, -1, dtype=np.int64)
     for t, u in enumerate(plan.schedule):
         if u is None:
@@ -70,6 +73,21 @@ def check_plan(instance: Instance, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
             )
         sched[t] = u
     return idx, sched
+
+
+def _check_field_rules(instance: Instance, plan: Plan, idx: np.ndarray) -> None:
+    """``end`` and ``max_moves`` of MODEL.md section 9 (blocked points are checked per slot)."""
+    T = instance.horizon
+    if instance.end is not None and idx[T - 1] != lattice_mod.build(instance).end:
+        x, y = plan.positions[T - 1]
+        ex, ey = instance.end
+        raise PlanError(f"positions[{T - 1}]: must equal end [{ex:g}, {ey:g}] in the last slot, got [{x:g}, {y:g}]")
+    if instance.max_moves is not None:
+        moved = np.flatnonzero(idx[1:] != idx[:-1]) + 1  # the slots t with positions[t] != positions[t-1]
+        if len(moved) > instance.max_moves:
+            t = int(moved[instance.max_moves])
+            raise PlanError(f"positions[{t}]: move number {instance.max_moves + 1} breaks max_moves = "
+                            f"{instance.max_moves} (the plan makes {len(moved)} moves)")
 
 
 def advance(aoi: np.ndarray, q: np.ndarray, upload: int, q_upload) -> tuple[np.ndarray, np.ndarray]:

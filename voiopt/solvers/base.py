@@ -58,7 +58,7 @@ def lattice_bytes(instance: Instance) -> float:
     """The size of the lattice tables every method builds: distances and ranges per sensor
     and point (lattice.build)."""
     n = lattice_mod.n_points(instance)
-    return instance.n_sensors * n * 9.0 + n * 80.0
+    return instance.n_sensors * n * 9.0 + n * 100.0
 
 
 def points_in_range(instance: Instance) -> float:
