@@ -15,6 +15,7 @@ import numpy as np
 from voiopt import _grid
 from voiopt.instance import LATTICE_TOL, Instance, lattice_shape
 
+UNREACHABLE = _grid.UNREACHABLE  # steps_from's distance where there is no way
 MOVES = np.array([(0, 0), (0, 1), (0, -1), (1, 0), (-1, 0)], dtype=np.int64)
 
 
@@ -68,6 +69,17 @@ class Lattice:
         blocked points: the Manhattan distance on an open lattice; _grid.UNREACHABLE where
         there is no way."""
         return _grid.steps(self.nx, self.ny, self.blocked if self.has_blocked else None, p)
+
+    def walk_home(self, p: int, slots: int) -> list[int]:
+        """The points of the next ``slots`` slots after p: the fewest moves to end, then
+        staying (just staying without an end). From a point where ``can_finish`` holds, this
+        keeps every rule of MODEL.md section 9; it is how a stopped heuristic ends its plan."""
+        out = []
+        for _ in range(slots):
+            if self.to_end[p] > 0:
+                p = next(int(q) for q in self.neighbors[p] if q >= 0 and self.to_end[q] == self.to_end[p] - 1)
+            out.append(p)
+        return out
 
     def on_some_plan(self, t) -> np.ndarray:
         """Bool mask (or (len(t), n) for an array of slots) of the points the entity can stand on

@@ -79,6 +79,14 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
 
     m.tdma = pyo.Constraint(m.X, rule=tdma)
 
+    if st.min_stays:  # max_moves (MODEL.md section 9): enough slots without a move
+        stays = list(zip(st.stay_point.tolist(), st.stay_slot.tolist(), strict=True))
+        m.S = pyo.Set(initialize=stays, dimen=2)
+        m.s = pyo.Var(m.S, bounds=(0, 1))
+        m.stay_before = pyo.Constraint(m.S, rule=lambda m, p, t: m.s[p, t] <= m.x[p, t - 1])
+        m.stay_after = pyo.Constraint(m.S, rule=lambda m, p, t: m.s[p, t] <= m.x[p, t])
+        m.max_moves = pyo.Constraint(expr=sum(m.s[k] for k in m.S) >= st.min_stays)
+
     eu, uu = lt.uploads(st)
     feeds: dict[int, list[int]] = {}
     for e, u in zip(eu, uu, strict=True):
@@ -113,7 +121,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
 def plan_indices(m: Any, instance: Instance, objective: str) -> tuple[np.ndarray, np.ndarray]:
     """(point indices, schedule with -1) of a solved model, uploads cleaned as in the array model."""
     st = milp.structure(instance, objectives.get(objective).worth)
-    col = np.zeros(st.n_x + st.n_uploads)
+    col = np.zeros(st.n_base)
     for (p, t), var in m.x.items():
         col[st.x_col[t, p]] = var.value or 0.0
     for u, var in m.y.items():

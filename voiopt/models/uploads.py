@@ -42,6 +42,10 @@ class Structure:
     up_point: np.ndarray  # (M,)
     up_level: np.ndarray  # (M,) level index of the upload within its sensor
     up_col: np.ndarray  # (M,) column of y (n_x + u)
+    stay_slot: np.ndarray  # (S,) slots t >= 1 of the stay variables s[p, t] (only with a binding max_moves)
+    stay_point: np.ndarray  # (S,) their points p
+    stay_col: np.ndarray  # (S,) their columns, after the y columns
+    min_stays: int  # (T - 1) - max_moves: the least number of slots in which the entity stays
     worth0: np.ndarray  # (T+1, N) worth of the initial packet in slot t
     level_worth: list[np.ndarray]  # per sensor (T+1, K_i): w_l(t), nan where not yet reachable
     level_first_slot: list[np.ndarray]  # per sensor (K_i,): earliest slot of an upload at level >= l
@@ -53,6 +57,11 @@ class Structure:
     @property
     def n_uploads(self) -> int:
         return len(self.up_col)
+
+    @property
+    def n_base(self) -> int:
+        """Columns of the path and schedule: x, y and the stay variables."""
+        return self.n_x + self.n_uploads + len(self.stay_col)
 
     def best_worth(self) -> np.ndarray:
         """(T+1, N): the best worth sensor i can possibly have in slot t (a relaxation)."""
@@ -77,8 +86,7 @@ def structure(instance: Instance, kind: str) -> Structure:
     lat = lattice_mod.build(instance)
     T, N, n = instance.horizon, instance.n_sensors, lat.n_points
     ch = instance.channel
-    steps = lat.steps_from(lat.start)
-    reach = steps[None, :] <= np.arange(T)[:, None]  # (T, n)
+    reach = lat.on_some_plan(np.arange(T))  # (T, n): on some legal plan (MODEL.md sections 2 and 9)
     x_col = np.full((T, n), -1, dtype=np.int64)
     x_col[reach] = np.arange(int(reach.sum()))
     n_x = int(reach.sum())
@@ -142,7 +150,14 @@ def structure(instance: Instance, kind: str) -> Structure:
     order = np.lexsort((up_sensor, up_point, up_slot))  # by slot, then point, then sensor
     up_sensor, up_slot, up_point, up_level = (a[order] for a in (up_sensor, up_slot, up_point, up_level))
     up_col = n_x + np.arange(len(up_sensor))
+    min_stays = max(0, T - 1 - lat.budget)
+    if min_stays:  # s[p, t] for a point in both slots t-1 and t
+        stay_slot, stay_point = np.nonzero(reach[1:] & reach[:-1])
+        stay_slot = stay_slot + 1
+    else:
+        stay_slot = stay_point = np.zeros(0, dtype=np.int64)
+    stay_col = n_x + len(up_sensor) + np.arange(len(stay_slot))
     return Structure(
         instance, kind, T, n, x_col, n_x, up_sensor, up_slot, up_point, up_level, up_col,
-        worth0, level_worth, level_first,
+        stay_slot, stay_point, stay_col, min_stays, worth0, level_worth, level_first,
     )

@@ -37,12 +37,15 @@ def _is_aoi(objective: str) -> bool:
 
 
 def _steps_to_sensor(instance: Instance) -> np.ndarray:
-    """(N, n) fewest moves from each lattice point into range of each sensor (inf if never)."""
+    """(N, n) fewest moves from each lattice point into range of each sensor, around blocked
+    points (inf if never)."""
     lat = lattice_mod.build(instance)
     out = np.full((instance.n_sensors, lat.n_points), np.inf)
     for i in range(instance.n_sensors):
-        for q in np.flatnonzero(lat.in_range[i]):
-            out[i] = np.minimum(out[i], lat.steps_from(q))
+        near = np.flatnonzero(lat.in_range[i] & ~lat.blocked)
+        if len(near):
+            steps = lat.steps_from(near)
+            out[i] = np.where(steps < lattice_mod.UNREACHABLE, steps, np.inf)
     return out
 
 
@@ -110,8 +113,9 @@ def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
     aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
     dist = np.array([instance.initial_distance(i) for i in range(instance.n_sensors)])
     p = lat.start
+    used = 0  # moves made so far (MODEL.md section 9)
     idx, sched = [], []
-    for _ in range(instance.horizon):
+    for t in range(instance.horizon):
         best_key, best = None, None
         for u, a1, q1, score1 in slot.step(aoi, dist, p):
             if stop.check():
@@ -119,8 +123,8 @@ def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
             worst = slot.bottleneck(a1, q1, reachable)
             for m in range(5):
                 p1 = int(lat.neighbors[p, m])
-                if p1 < 0:
-                    continue
+                if p1 < 0 or t + 1 < instance.horizon and not lat.can_finish(p1, t + 1, used + (p1 != p)):
+                    continue  # off the area, blocked, or no way left to end within the budget
                 lookahead = max(s for *_, s in slot.step(a1, q1, p1))
                 steps = to_sensor[worst, p1] if reachable[worst] else 0.0
                 key = (score1[0], lookahead[0], score1, -steps, lookahead)
@@ -131,12 +135,15 @@ def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
         u, _, aoi, dist, p1 = best
         idx.append(p)
         sched.append(u)
+        used += p1 != p
         p = p1
     solver = {"rule": "aoi" if aoi_objective else "voi", "lookahead": 1}
     if stop.requested:
-        solver["stopped"] = f"{stop.describe()} after {len(idx)} of {instance.horizon} slots; then staying idle"
-        idx += [p] * (instance.horizon - len(idx))
-        sched += [-1] * (instance.horizon - len(sched))
+        then = "heading for end without uploads" if lat.end >= 0 else "staying idle"
+        solver["stopped"] = f"{stop.describe()} after {len(idx)} of {instance.horizon} slots; then {then}"
+        left = instance.horizon - len(idx)
+        idx += [p, *lat.walk_home(p, left - 1)] if left else []
+        sched += [-1] * left
     return Result.from_plan(
         instance, "greedy", objective, Plan.from_indices(instance, idx, sched), status=stop.reason or "feasible",
         runtime_s=stop.elapsed(), solver=solver,
@@ -172,15 +179,21 @@ def _best_points_for_order(order, candidates, dist, start) -> tuple[float, list[
 
 
 class _Moves:
-    """dist[p][q]: the fewest moves between lattice points p and q (Manhattan on the full
-    lattice), without a table of all pairs."""
+    """dist[p][q]: the fewest moves between lattice points p and q, without a table of all
+    pairs: Manhattan on an open lattice, and around blocked points a BFS row per point asked
+    (only the start and the sensors' in-range points are)."""
 
-    def __init__(self, coords: np.ndarray) -> None:
-        self.coords = coords
+    def __init__(self, lat: lattice_mod.Lattice) -> None:
+        self.lat = lat
+        self.rows: dict[int, np.ndarray] = {}
 
     def __getitem__(self, p: int):
-        row = self.coords[p]
-        coords = self.coords
+        if self.lat.has_blocked:
+            if p not in self.rows:
+                self.rows[p] = self.lat.steps_from(p)
+            return self.rows[p]
+        row = self.lat.coords[p]
+        coords = self.lat.coords
 
         class _Row:
             def __getitem__(self, q: int) -> int:
@@ -197,9 +210,10 @@ def _tour(instance: Instance, stop: Stop, seed: int) -> tuple[list[int], dict]:
     Stopped early, the sensors' index order is the tour."""
     lat = lattice_mod.build(instance)
     start = lat.start
-    servable = [i for i in range(instance.n_sensors) if lat.in_range[i].any()]
-    candidates = {i: np.flatnonzero(lat.in_range[i]).tolist() for i in servable}
-    dist = _Moves(lat.coords)
+    reach = lat.from_start < lattice_mod.UNREACHABLE  # not walled off by blocked points
+    servable = [i for i in range(instance.n_sensors) if (lat.in_range[i] & reach).any()]
+    candidates = {i: np.flatnonzero(lat.in_range[i] & reach).tolist() for i in servable}
+    dist = _Moves(lat)
     info = {"unservable_sensors": [i for i in range(instance.n_sensors) if i not in servable]}
     if len(servable) <= EXACT_TOUR_MAX_SENSORS:
         best = (math.inf, [])
@@ -265,7 +279,9 @@ def shortest_path(instance: Instance, objective: str, *, progress: bool = False,
                   time_limit: float | None = None, memory_limit: float = DEFAULT_MEMORY_GB) -> Result:
     """The paper's benchmark: the shortest closed walk from start that comes within d_th of
     every sensor, followed cyclically for T slots, uploading the in-range sensor of largest
-    AoI each slot (lowest index on ties). Exact tour for N <= 7, a heuristic above; stopped
+    AoI each slot (lowest index on ties). Around blocked points the walk takes BFS distances;
+    with an end or a budget it leaves the cycle for the fewest moves to end when going on
+    would leave no way there (MODEL.md section 9). Exact tour for N <= 7, a heuristic above; stopped
     early (time, memory, Ctrl-C), the best tour found so far."""
     check_objective(objective)
     check_seed(seed)
@@ -284,10 +300,22 @@ def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) ->
     for q in [*waypoints, lat.start]:
         walk.extend(nx.shortest_path(g, walk[-1], q)[1:])
     cycle = walk[:-1] if len(walk) > 1 else walk  # closed: the last point is the start again
+    positions = [lat.start]
+    used, home = 0, False
+    for t in range(1, instance.horizon):  # the cycle while it leaves a way to end in time and budget
+        p, q = positions[-1], cycle[t % len(cycle)]
+        home = home or not lat.can_finish(q, t, used + (q != p))
+        if home:
+            q = lat.walk_home(p, 1)[0]
+        used += q != p
+        positions.append(q)
+    if home:
+        info["heads_home_from_slot"] = next(t for t in range(instance.horizon)
+                                            if positions[t] != cycle[t % len(cycle)])
     aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
     idx, sched = [], []
     for t in range(instance.horizon):
-        p = cycle[t % len(cycle)]
+        p = positions[t]
         in_range = np.flatnonzero(lat.in_range[:, p])
         u = int(in_range[np.argmax(aoi[in_range])]) if len(in_range) else -1
         aoi, _ = advance(aoi, aoi, u, 1)  # ages only

@@ -13,7 +13,12 @@ Variables, created only where they can be 1:
   are the distinct upload scores of sensor i (MODEL.md section 4: an upload's rank never
   changes over time, so "best upload so far" is well defined and replaces "latest upload"
   exactly: a plan never gains from an upload worse than the one it holds);
-- z[t] (or a single z), the objective's per-slot minimum worth, in units of ``scale``.
+- z[t] (or a single z), the objective's per-slot minimum worth, in units of ``scale``;
+- s[p, t] in [0, 1], only with a binding ``max_moves``: the entity stays at p from slot t-1 to t.
+
+The field rules of MODEL.md section 9 shape the graph: x exists only where p lies on some legal
+plan (blocked points never, the last slot only at ``end``), and ``max_moves`` is one row over
+the stay variables.
 
 The worth of sensor i in slot t is w0_i(t) + sum_l inc_l(t) H[i, t, l] with telescoping
 increments inc_l(t) = w_l(t) - w_(l-1)(t) of the precomputed lookup values w_l(t).
@@ -65,11 +70,27 @@ def _path_rows(st: Structure, tr: _Triplets) -> None:
         cols = np.concatenate([st.up_col, st.x_col[t_k, p_k]])
         vals = np.concatenate([np.ones(st.n_uploads), -np.ones(len(keys))])
         tr.add(rows, cols, vals, np.full(len(keys), -np.inf), 0.0, name="tdma")
+    _budget_rows(st, tr)
+
+
+def _budget_rows(st: Structure, tr: _Triplets) -> None:
+    """max_moves (MODEL.md section 9): s[p, t] <= x[p, t-1], s[p, t] <= x[p, t] and
+    sum s >= (T - 1) - max_moves. With x integral, s[p, t] can be 1 only when the entity stays
+    at p from slot t-1 to t, so the sum counts the slots without a move; x alone stays binary."""
+    S = len(st.stay_col)
+    if not st.min_stays:
+        return
+    e = np.arange(S)
+    for lag in (1, 0):
+        tr.add(np.concatenate([e, e]), np.concatenate([st.stay_col, st.x_col[st.stay_slot - lag, st.stay_point]]),
+               np.concatenate([np.ones(S), -np.ones(S)]), np.full(S, -np.inf), 0.0, name=f"stay_lag{lag}_")
+    tr.add(np.zeros(S, dtype=np.int64), st.stay_col, 1.0, np.array([float(st.min_stays)]), np.inf, name="max_moves")
 
 
 def _base_columns(st: Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Bounds and integrality of x and y (all binary; x of the start in slot 0 fixed to 1)."""
-    n = st.n_x + st.n_uploads
+    """Bounds and integrality of x and y (all binary; x of the start in slot 0 fixed to 1) and
+    of the stay variables (continuous in [0, 1])."""
+    n = st.n_base
     lower, upper = np.zeros(n), np.ones(n)
     lower[st.x_col[0, lattice_mod.build(st.instance).start]] = 1.0
     integrality = np.zeros(n, dtype=np.int8)

@@ -86,13 +86,16 @@ class Model:
                 "binaries": int(self.integrality.sum())}
 
     def col_names(self) -> list[str]:
-        """x_t<slot>_p<point>, y_i<sensor>_t<slot>_p<point>, H_i<sensor>_t<slot>_l<level>, z_t<slot>."""
+        """x_t<slot>_p<point>, y_i<sensor>_t<slot>_p<point>, s_t<slot>_p<point> (stays, with a
+        budget), H_i<sensor>_t<slot>_l<level>, z_t<slot>."""
         st = self.structure
         names = [""] * self.n_cols
         for t, p in zip(*np.nonzero(st.x_col >= 0), strict=True):
             names[st.x_col[t, p]] = f"x_t{t}_p{p}"
         for u in range(st.n_uploads):
             names[st.up_col[u]] = f"y_i{st.up_sensor[u]}_t{st.up_slot[u]}_p{st.up_point[u]}"
+        for c, t, p in zip(st.stay_col, st.stay_slot, st.stay_point, strict=True):
+            names[c] = f"s_t{t}_p{p}"
         if self.levels is not None:
             lt = self.levels
             for e, c in enumerate(self.h_cols):
@@ -158,6 +161,8 @@ class Model:
         sched = clean_schedule(st, idx, sched)
         col = np.zeros(self.n_cols)
         col[st.x_col[np.arange(st.horizon), idx]] = 1.0
+        stays = idx[st.stay_slot] == idx[st.stay_slot - 1]
+        col[st.stay_col[stays & (idx[st.stay_slot] == st.stay_point)]] = 1.0
         for u in upload_ids(st, idx, sched):
             col[st.up_col[u]] = 1.0
         if self.levels is not None:
