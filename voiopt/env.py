@@ -6,8 +6,11 @@
 Observation: MultiDiscrete [k, l, A_1..A_N, q_1..q_N] (lattice coordinates, ages, distance
 indices as in models/mdp.py). Action: Discrete((N + 1) * 5), number = upload * 5 + move with
 upload 0 = none, 1 + i = sensor i, move 0..4 = stay, N, S, E, W. ``info["action_mask"]`` marks
-the feasible actions; an infeasible one is executed as its feasible part (no upload, and stay
-instead of leaving the area) with ``info["feasible"] = False``. An episode is T slots.
+the feasible actions (with the field rules of MODEL.md section 9: never onto a blocked point,
+and always with a way left to ``end`` within the slots and the ``max_moves`` budget); an
+infeasible one is executed as its feasible part (no upload, and its move if feasible, else
+stay, or the first move of the way to end) with ``info["feasible"] = False``, so every rollout
+is a legal plan. An episode is T slots.
 """
 
 from __future__ import annotations
@@ -60,13 +63,19 @@ class VoIEnv(gym.Env):
         self.t = 0
 
     def _obs(self) -> np.ndarray:
-        p, aoi, qidx, _ = self.state
+        p, aoi, qidx, *_ = self.state
         k, l = self.lattice.coords[p]
         return np.array([k, l, *aoi, *qidx], dtype=np.int64)
 
     def action_mask(self) -> np.ndarray:
-        """Bool mask over the Discrete actions: feasible in the current state."""
-        return self._local[self.state[0]] >= 0
+        """Bool mask over the Discrete actions: feasible in the current state and slot (no
+        move off the area or onto a blocked point, and one that leaves a way to ``end`` within
+        the slots and moves left, MODEL.md section 9)."""
+        local = self._local[self.state[0]]
+        mask = local >= 0
+        if self.t < self.instance.horizon:
+            mask[mask] = self.model.feasible(self.state, self.t)[local[mask]]
+        return mask
 
     def _info(self, feasible: bool = True) -> dict[str, Any]:
         return {"action_mask": self.action_mask(), "slot": self.t, "feasible": feasible}
@@ -84,11 +93,15 @@ class VoIEnv(gym.Env):
         if self.t >= self.instance.horizon:
             raise RuntimeError("step() after the episode ended: call reset()")
         p = self.state[0]
+        mask = self.action_mask()
+        feasible = bool(mask[a])
         k = int(self._local[p, a])
-        feasible = k >= 0
-        if not feasible:
-            move = a % 5 if self.lattice.neighbors[p, a % 5] >= 0 else 0
-            k = int(self._local[p, move])  # no upload, the move if legal else stay
+        if not feasible:  # no upload, the move if feasible, else the first move of the way to end
+            move = a % 5
+            if not mask[move]:
+                home = self.lattice.walk_home(p, 1)[0]
+                move = next(m for m in range(5) if self.lattice.neighbors[p, m] == home)
+            k = int(self._local[p, move])
         self.state, reward = self.model.step(self.state, k)
         self.t += 1
         terminated = self.t >= self.instance.horizon
@@ -111,7 +124,7 @@ class VoIEnv(gym.Env):
                 near = np.flatnonzero(lat.in_range[:, q])
                 cells.append("R" if q == p else (str(near[0] % 10) if len(near) else "."))
             rows.append(" ".join(cells))
-        _, aoi, _, _ = self.state
+        _, aoi, *_ = self.state
         rows.append(f"slot {self.t}/{self.instance.horizon}  AoI {list(aoi)}")
         return "\n".join(rows) + "\n"
 

@@ -2,9 +2,11 @@
 
 State s_t = (p(t), A(t), q(t)). Effective distances come from a finite set, so q_i is kept as
 an index: 0 is sensor i's initial distance q_i(0), 1 + p is its distance from lattice point p.
-Ages are at most A_i(0) + T. States are tuples (p, A, q, slot) where slot is always 0 in the
-paper's MDP; with ``slot_in_state`` it is t, which makes the finite horizon exact (an option
-beyond the paper). A state packs exactly into a few 64-bit words (no field straddles a word),
+Ages are at most A_i(0) + T. States are tuples (p, A, q, slot, moves) where slot is always 0 in
+the paper's MDP; with ``slot_in_state`` it is t, which makes the finite horizon exact (an option
+beyond the paper). moves, the moves made so far, is 0 unless a ``max_moves`` budget binds
+(MODEL.md section 9); then it is part of the state, and with an ``end`` or such a budget the
+actions that would leave no way to end in the slots and moves left are masked (``feasible``). A state packs exactly into a few 64-bit words (no field straddles a word),
 which is the key of the compiled Q-table.
 
 Actions available at point p are numbered 0 .. n_actions[p]-1, uploads outer (none first, then
@@ -51,10 +53,14 @@ class MDP:
     action_move: np.ndarray  # (n, K) move index 0..4 (stay, N, S, E, W)
     action_next: np.ndarray  # (n, K) p(t+1)
     voi_reward: np.ndarray  # (N, max_age + 1, n + 1) V_i in reward units for age a and distance index
-    field_word: np.ndarray  # (2 + 2N,) word of each packed field: p, A_i and q_i per sensor, slot
-    field_shift: np.ndarray  # (2 + 2N,) bit offset of each field in its word
-    field_width: np.ndarray  # (2 + 2N,) bits of each field
+    field_word: np.ndarray  # (2 + 2N [+ 1],) word of each packed field: p, A_i and q_i per sensor, slot, moves
+    field_shift: np.ndarray  # bit offset of each field in its word
+    field_width: np.ndarray  # bits of each field
     n_words: int
+    to_end: np.ndarray  # (n,) fewest moves to end (0 everywhere without one), MODEL.md section 9
+    budget: int  # the moves a plan may make, min(max_moves, T - 1)
+    masked: bool  # an end or a binding budget: some actions are infeasible in some slots
+    moves_in_state: bool  # a binding budget: the moves made so far are part of the state
 
     @property
     def n_sensors(self) -> int:
@@ -68,9 +74,29 @@ class MDP:
     def max_actions(self) -> int:
         return self.action_upload.shape[1]
 
-    def initial_state(self) -> tuple[int, tuple[int, ...], tuple[int, ...], int]:
-        """s_0 = (start, A(0), q(0), 0) with every q_i at index 0 (its initial distance)."""
-        return self.start, tuple(int(a) for a in self.initial_aoi), (0,) * self.n_sensors, 0
+    def initial_state(self) -> tuple[int, tuple[int, ...], tuple[int, ...], int, int]:
+        """s_0 = (start, A(0), q(0), 0, 0) with every q_i at index 0 (its initial distance); the
+        last two are the slot and the moves made, each 0 unless it is part of the state."""
+        return self.start, tuple(int(a) for a in self.initial_aoi), (0,) * self.n_sensors, 0, 0
+
+    def feasible(self, state, t: int) -> np.ndarray:
+        """Bool mask over the action numbers at the state's point in slot t: the move leaves a
+        way to ``end`` within the slots and moves left (MODEL.md section 9). The slot t is
+        needed because the paper's state does not hold it; every action is feasible in the
+        last slot, and without an end or a binding budget in every slot."""
+        p, moves = state[0], self.moves_made(state, t)
+        k = int(self.n_actions[p])
+        if not self.masked or t + 1 >= self.horizon:
+            return np.ones(k, dtype=bool)
+        nxt = self.action_next[p, :k]
+        used = moves + (nxt != p)
+        left = np.minimum(self.horizon - 2 - t, self.budget - used)
+        return (used <= self.budget) & (self.to_end[nxt] <= left)
+
+    def moves_made(self, state, t: int) -> int:
+        """The moves made so far: in the state with a binding budget; otherwise they do not
+        matter (no budget binds, so only slots limit the way to end)."""
+        return int(state[4]) if self.moves_in_state else 0
 
     def actions(self, p: int) -> list[tuple[int, int]]:
         """The feasible actions at p as (upload or -1, move index), in action-number order."""
@@ -86,11 +112,13 @@ class MDP:
 
     def step(self, state, k: int):
         """(next state, reward) after action number k; plain Python, for the env and tests."""
-        p, aoi, qidx, slot = state
+        p, aoi, qidx, slot, moves = state
         u = int(self.action_upload[p, k])
         aoi, qidx = (tuple(a.tolist()) for a in advance(np.array(aoi, np.int64), np.array(qidx, np.int64), u, 1 + p))
         slot = slot + 1 if self.slot_in_state else 0
-        return (int(self.action_next[p, k]), aoi, qidx, slot), self.reward_of(aoi, qidx, u)
+        nxt = int(self.action_next[p, k])
+        moves = moves + (nxt != p) if self.moves_in_state else 0
+        return (nxt, aoi, qidx, slot, moves), self.reward_of(aoi, qidx, u)
 
     def reward_of(self, aoi, qidx, upload: int) -> float:
         """r_{t+1} of MODEL.md section 7 for the next state's ages and distance indices."""
@@ -101,23 +129,27 @@ class MDP:
 
     def encode(self, state) -> np.ndarray:
         """The packed key of a state: n_words uint64 words."""
-        p, aoi, qidx, slot = state
+        p, aoi, qidx, slot, moves = state
         words = [0] * self.n_words
         values = [p]
         for a, q in zip(aoi, qidx, strict=True):
             values += [a, q]
         values.append(slot)
+        if self.moves_in_state:
+            values.append(moves)
         for f, v in enumerate(values):
             words[self.field_word[f]] |= int(v) << int(self.field_shift[f])
         return np.array(words, dtype=np.uint64)
 
-    def decode(self, words) -> tuple[int, tuple[int, ...], tuple[int, ...], int]:
+    def decode(self, words) -> tuple[int, tuple[int, ...], tuple[int, ...], int, int]:
         """The state of a packed key (inverse of ``encode``)."""
         values = [
             (int(words[w]) >> int(s)) & ((1 << int(b)) - 1)
             for w, s, b in zip(self.field_word, self.field_shift, self.field_width, strict=True)
         ]
-        return values[0], tuple(values[1:-1:2]), tuple(values[2:-1:2]), values[-1]
+        N = self.n_sensors
+        moves = values[2 * N + 2] if self.moves_in_state else 0
+        return values[0], tuple(values[1:2 * N + 1:2]), tuple(values[2:2 * N + 1:2]), values[2 * N + 1], moves
 
 
 def _bits(max_value: int) -> int:
@@ -161,7 +193,8 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
         voi = voi / instance.channel.bandwidth_hz
     voi_reward = np.ascontiguousarray(voi)
 
-    widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N + [_bits(T)]
+    moves_in_state = lat.budget < T - 1
+    widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N + [_bits(T)] + ([_bits(lat.budget)] if moves_in_state else [])
     field_word, field_shift, word, used = [], [], 0, 0
     for w in widths:
         if used + w > 64:
@@ -176,4 +209,6 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
         instance, reward, float(penalty), reward_units, bool(slot_in_state), int(lat.start), initial_aoi, n_actions, action_upload,
         action_move, action_next, voi_reward, np.array(field_word, dtype=np.int64),
         np.array(field_shift, dtype=np.int64), np.array(widths, dtype=np.int64), word + 1,
+        np.ascontiguousarray(lat.to_end, dtype=np.int64), int(lat.budget), bool(lat.end >= 0 or moves_in_state),
+        moves_in_state,
     )

@@ -13,6 +13,12 @@ Everything here works in "maximise" form on integer per-sensor ranks:
 - ``best_rank[i, p, t, t2]``: the best rank sensor i alone could have in slot t2 through an
   upload in slots t..t2-1 by an entity standing at p in slot t (-1 if none is reachable): the
   per-sensor relaxation behind the admissible future bound.
+- ``point_steps[i, j, p]``: the fewest moves between sensor i's j-th in-range point and point
+  p, around blocked points (Manhattan on an open lattice). The bounds use these exact
+  distances; any smaller number would still give a bound, only a weaker one.
+- ``left[l]``: the moves label l may still make (MODEL.md section 9), capped at the slots
+  left; with a budget it is one more lane of the dominance test (more is better), and
+  ``to_end[q]`` prunes children that could no longer reach ``end`` in time and budget.
 """
 
 from __future__ import annotations
@@ -24,19 +30,17 @@ SUM, MIN = 0, 1
 
 
 @njit(cache=True)
-def best_rank_table(up_rank, coords, sensor_points, sensor_point_count):
+def best_rank_table(up_rank, point_steps, sensor_points, sensor_point_count):
     """best_rank[i, p, t, t2] for t2 in t+1..T (other entries -1), int16."""
     T, n, N = up_rank.shape
     out = np.full((N, n, T, T + 1), -1, dtype=np.int16)
     for i in range(N):
         for p in range(n):
-            px, py = coords[p, 0], coords[p, 1]
             # steps from p to each in-range point of sensor i
             k = sensor_point_count[i]
             steps = np.empty(k, dtype=np.int64)
             for j in range(k):
-                q = sensor_points[i, j]
-                steps[j] = abs(coords[q, 0] - px) + abs(coords[q, 1] - py)
+                steps[j] = point_steps[i, j, p]
             for t in range(T):
                 cur = -1
                 for s in range(t, T):
@@ -50,7 +54,7 @@ def best_rank_table(up_rank, coords, sensor_points, sensor_point_count):
 
 
 @njit(cache=True)
-def pair_table(W, up_rank, coords, sensor_points, sensor_point_count):
+def pair_table(W, up_rank, point_steps, sensor_points, sensor_point_count):
     """pair[i, j, tau, q, t2]: the best min(V_i(t2), V_j(t2)) when both are refreshed in slots
     tau..t2-1, i before j, by an entity at q in slot tau; -inf where impossible.
 
@@ -73,7 +77,7 @@ def pair_table(W, up_rank, coords, sensor_points, sensor_point_count):
                         bj = -np.inf
                         for bi in range(sensor_point_count[j]):
                             b = sensor_points[j, bi]
-                            if abs(coords[a, 0] - coords[b, 0]) + abs(coords[a, 1] - coords[b, 1]) <= t2 - 1 - s:
+                            if point_steps[j, bi, a] <= t2 - 1 - s:
                                 v = W[j, up_rank[t2 - 1, b, j], t2]
                                 if v > bj:
                                     bj = v
@@ -86,7 +90,7 @@ def pair_table(W, up_rank, coords, sensor_points, sensor_point_count):
                         best = -np.inf
                         for ai in range(sensor_point_count[i]):
                             a = sensor_points[i, ai]
-                            sigma = tau + abs(coords[a, 0] - coords[q, 0]) + abs(coords[a, 1] - coords[q, 1])
+                            sigma = tau + point_steps[i, ai, q]
                             if sigma <= t2 - 2 and H[ai, sigma] > best:
                                 best = H[ai, sigma]
                         out[i, j, tau, q, t2] = best
@@ -274,16 +278,19 @@ def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma, pair):
 
 
 @njit(cache=True, nogil=True)
-def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_range_count, W, best_rank,
-           incumbent, q_lo, q_hi, beam, collapse, tdma, pair, halt):
+def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, in_range_count, W, best_rank,
+           incumbent, q_lo, q_hi, beam, collapse, tdma, pair, to_end, budget_lane, halt):
     """Children in slot t+1 at target points q_lo..q_hi-1 of the layer in slot t.
 
-    Returns the non-dominated children whose bound beats ``incumbent``, grouped by point:
-    (ranks, acc, ub, parent, upload, pos, count per point, children generated, halted).
+    Returns the non-dominated children whose bound beats ``incumbent`` and that can still reach
+    ``end`` (``to_end``) within the slots and moves left, grouped by point: (ranks, acc, ub,
+    parent, upload, pos, count per point, children generated, halted, moves left).
     It runs without the GIL, and gives up (halted, with no children) as soon as ``halt[0]``
     is set by the thread that watches the stop rule."""
     N = ranks.shape[1]
     tau = t + 1
+    T = W.shape[2] - 1
+    slots_left = T - 1 - tau  # moves the entity can still make after slot tau
     # capacity: every (label, upload) pair of every source point
     cap = 0
     max_m = 0
@@ -302,8 +309,10 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
     out_par = np.empty(cap, dtype=np.int64)
     out_up = np.empty(cap, dtype=np.int16)
     out_pos = np.empty(cap, dtype=np.int32)
+    out_left = np.empty(cap, dtype=np.int16)
     counts = np.zeros(q_hi - q_lo, dtype=np.int64)
-    NW = (N + 3) // 4  # ranks packed four 16-bit lanes to a word for the dominance test
+    NL = N + budget_lane  # lanes of the dominance test: the ranks, and the moves left with a budget
+    NW = (NL + 3) // 4  # lanes packed four 16 bits to a word
     c_key = np.zeros((max_m, NW), dtype=np.uint64)
     c_rank = np.empty((max_m, N), dtype=np.int16)
     c_acc = np.empty(max_m)
@@ -311,6 +320,7 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
     c_par = np.empty(max_m, dtype=np.int64)
     c_up = np.empty(max_m, dtype=np.int16)
     c_sum = np.empty(max_m)
+    c_left = np.empty(max_m, dtype=np.int16)
     kept = np.empty(max_m, dtype=np.int64)
     chain = np.empty(max_m, dtype=np.int64)  # next kept label in the same bucket
     head = np.empty(W.shape[1] + 1, dtype=np.int64)  # first kept label of each bucket
@@ -329,9 +339,14 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
             if p < 0:
                 continue
             for l in range(off[p], off[p + 1]):
+                lf = left[l] - (1 if p != q else 0)
+                if lf < 0 or to_end[q] > min(lf, slots_left):
+                    continue  # over the budget, or no way left to end
+                if lf > slots_left:
+                    lf = slots_left  # moves beyond the slots left are worth nothing
                 if halt[0]:
                     return (out_rank[:0].copy(), out_acc[:0].copy(), out_ub[:0].copy(), out_par[:0].copy(),
-                            out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True)
+                            out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True, out_left[:0].copy())
                 if ub_in[l] <= incumbent:
                     continue
                 for o in range(-1, in_range_count[p]):
@@ -353,6 +368,10 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
                         c_rank[m, i] = child[i]
                         c_key[m, i // 4] |= np.uint64(child[i]) << np.uint64(16 * (i % 4))
                         s += child[i]
+                    if budget_lane:
+                        c_key[m, N // 4] |= np.uint64(lf) << np.uint64(16 * (N % 4))
+                        s += lf
+                    c_left[m] = lf
                     c_sum[m] = -s
                     c_acc[m] = -a
                     c_ub[m] = ub
@@ -389,7 +408,7 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
         for j in range(m):
             if (j & 255) == 0 and halt[0]:
                 return (out_rank[:0].copy(), out_acc[:0].copy(), out_ub[:0].copy(), out_par[:0].copy(),
-                        out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True)
+                        out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True, out_left[:0].copy())
             c = o1[o2[j]]
             dominated = nk > 0 and _ranks_geq(c_key[kept[last]], c_key[c])
             v = c_rank[c, bd] - lo_b
@@ -435,10 +454,11 @@ def expand(mode, t, ranks, acc, ub_in, off, nbr, up_rank, in_range_list, in_rang
             out_par[n_out] = c_par[c]
             out_up[n_out] = c_up[c]
             out_pos[n_out] = q
+            out_left[n_out] = c_left[c]
             n_out += 1
         counts[q - q_lo] = nk
     return (out_rank[:n_out].copy(), out_acc[:n_out].copy(), out_ub[:n_out].copy(), out_par[:n_out].copy(),
-            out_up[:n_out].copy(), out_pos[:n_out].copy(), counts, generated, False)
+            out_up[:n_out].copy(), out_pos[:n_out].copy(), counts, generated, False, out_left[:n_out].copy())
 
 
 @njit(cache=True)

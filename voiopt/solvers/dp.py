@@ -57,7 +57,10 @@ class Tables:
     objective: str
     sensor_points: np.ndarray  # (N, P) in-range points of each sensor
     sensor_point_count: np.ndarray  # (N,)
-    coords: np.ndarray  # (n, 2) lattice coordinates
+    point_steps: np.ndarray  # (N, P, n) fewest moves from each in-range point to every point
+    to_end: np.ndarray  # (n,) fewest moves to end (0 without one), MODEL.md section 9
+    budget: int  # the moves a plan may make, min(max_moves, T - 1)
+    budget_lane: int  # 1 when max_moves binds: the moves left join the dominance test
     pair: np.ndarray = field(default_factory=lambda: np.empty((0, 0, 0, 0, 0)))  # pair_table, or empty
 
     @property
@@ -71,7 +74,7 @@ class Tables:
 
         T, n, N = self.up_rank.shape
         if N > 1 and self.pair.shape[0] == 0 and N * N * T * n * (T + 1) * 8 <= max_bytes:
-            self.pair = core.pair_table(self.W, self.up_rank, self.coords, self.sensor_points,
+            self.pair = core.pair_table(self.W, self.up_rank, self.point_steps, self.sensor_points,
                                         self.sensor_point_count)
 
 
@@ -79,7 +82,9 @@ def table_bytes(instance: Instance) -> float:
     """An upper bound on the bytes of build_tables, from the instance's sizes alone."""
     T, N, n = instance.horizon, instance.n_sensors, lattice_mod.n_points(instance)
     R = 2.0 + T * points_in_range(instance)  # candidate uploads per sensor
-    return lattice_bytes(instance) + 2.0 * T * n * N + 8.0 * N * R * (T + 1) + 120.0 * N * R + 2.0 * N * n * T * (T + 1)
+    P = points_in_range(instance)
+    return (lattice_bytes(instance) + 2.0 * T * n * N + 8.0 * N * R * (T + 1) + 120.0 * N * R
+            + 2.0 * N * n * T * (T + 1) + 8.0 * N * P * n)
 
 
 def build_tables(instance: Instance, objective: str) -> Tables:
@@ -139,12 +144,17 @@ def build_tables(instance: Instance, objective: str) -> Tables:
     for i in range(N):
         ids = np.flatnonzero(lat.in_range[i])
         sensor_points[i, : len(ids)] = ids
-    best_rank = core.best_rank_table(up_rank, lat.coords.astype(np.int64), sensor_points, sensor_point_count)
+    point_steps = np.empty((N, sensor_points.shape[1], n), dtype=np.int64)
+    for i in range(N):
+        for j in range(sensor_points.shape[1]):
+            point_steps[i, j] = lat.steps_from(int(sensor_points[i, j]))
+    best_rank = core.best_rank_table(up_rank, point_steps, sensor_points, sensor_point_count)
     mode = core.SUM if objectives.get(objective).per_slot else core.MIN
     to_internal = (T if mode == core.SUM else 1.0) * (-1.0 if aoi else 1.0)
     return Tables(mode, initial_rank, up_rank, W, best_rank, in_range_list, in_range_count,
                   np.ascontiguousarray(lat.neighbors, dtype=np.int64), lat.start, to_internal, objective,
-                  sensor_points, sensor_point_count, lat.coords.astype(np.int64))
+                  sensor_points, sensor_point_count, point_steps, np.ascontiguousarray(lat.to_end, dtype=np.int64),
+                  lat.budget, int(lat.budget < T - 1))
 
 
 @dataclass
@@ -175,6 +185,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
     ranks = tab.initial_rank[None, :].copy()
     acc = np.array([np.inf if tab.mode == core.MIN else 0.0])
     pos = np.array([tab.start], dtype=np.int32)
+    left = np.array([tab.budget], dtype=np.int16)  # moves each label may still make
     ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse, tdma, tab.pair)
     history: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per slot >= 1: parent, upload, pos
     stored = 0
@@ -197,7 +208,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                 nb = tab.neighbors[:, k]
                 work += np.where(nb >= 0, per_point[np.maximum(nb, 0)], 0)
             parts = []
-            l_ranks, l_acc, l_ub = ranks[idx], acc[idx], ub[idx]
+            l_ranks, l_acc, l_ub, l_left = ranks[idx], acc[idx], ub[idx], left[idx]
             q_lo = 0
             stopped = False
             while q_lo < n:
@@ -206,9 +217,9 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                 while q_hi < n and total + work[q_hi] <= CHUNK_WORK:
                     total += work[q_hi]
                     q_hi += 1
-                out = _watched(stop, core.expand, tab.mode, t, l_ranks, l_acc, l_ub, off, tab.neighbors,
+                out = _watched(stop, core.expand, tab.mode, t, l_ranks, l_acc, l_ub, l_left, off, tab.neighbors,
                                tab.up_rank, tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo,
-                               q_hi, beam, collapse, tdma, tab.pair)
+                               q_hi, beam, collapse, tdma, tab.pair, tab.to_end, tab.budget_lane)
                 if out[8]:  # halted by the stop rule: this layer is abandoned, its parents stay open
                     return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stop.reason)
                 out = (*out[:3], idx[out[3]], *out[4:])
@@ -228,9 +239,10 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             parent = np.concatenate([p[3] for p in parts])
             upload = np.concatenate([p[4] for p in parts])
             pos = np.concatenate([p[5] for p in parts])
+            left = np.concatenate([p[9] for p in parts])
             history.append((parent, upload, pos))
             stored += parent.nbytes + upload.nbytes + pos.nbytes
-            layer_bytes = new_ranks.nbytes + acc.nbytes + new_ub.nbytes
+            layer_bytes = new_ranks.nbytes + acc.nbytes + new_ub.nbytes + left.nbytes
             peak_bytes = max(peak_bytes, stored + layer_bytes + ranks.nbytes)
             ranks, ub = new_ranks, new_ub
             labels += len(acc)
@@ -413,9 +425,10 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
             best_plan, best_value = plan, found
         else:  # the incumbent matches to rounding: keep it, count the DP value in the bound
             best_value = max(best_value, out.value)
-    if best_plan is None:  # stopped before any plan: the entity stays and uploads nothing
+    if best_plan is None:  # stopped before any plan: no uploads, the fewest moves to end (or staying)
         T = instance.horizon
-        offer(Plan.from_indices(instance, np.full(T, tab.start), np.full(T, -1)), "idle")
+        lat = lattice_mod.build(instance)
+        offer(Plan.from_indices(instance, [tab.start, *lat.walk_home(tab.start, T - 1)], np.full(T, -1)), "idle")
     if out.complete:
         bound_internal, status = max(best_value, out.value), "optimal"
     else:

@@ -37,11 +37,51 @@ def _set_field(k0, key, f, value, field_word, field_shift, clear):
     return k0
 
 
+@nb.njit(cache=True, inline="always")
+def _feasible(p, k, t, moves, horizon, action_next, to_end, budget):
+    """Action k at p in slot t leaves a way to end within the slots and moves left (MODEL.md
+    section 9); every action is feasible in the last slot."""
+    if t + 1 >= horizon:
+        return True
+    nxt = action_next[p, k]
+    used = moves + (1 if nxt != p else 0)
+    return used <= budget and to_end[nxt] <= min(horizon - 2 - t, budget - used)
+
+
+@nb.njit(cache=True)
+def _masked_best(pool, row, p, t, moves, n, horizon, action_next, to_end, budget):
+    """(first feasible action of maximal Q-value, its value) in the Q row starting at pool[row]."""
+    best_k = -1
+    best = 0.0
+    for j in range(n):
+        if _feasible(p, j, t, moves, horizon, action_next, to_end, budget) and (best_k < 0 or pool[row + j] > best):
+            best_k = j
+            best = pool[row + j]
+    return best_k, best
+
+
+@nb.njit(cache=True)
+def _masked_draw(x, p, t, moves, n, horizon, action_next, to_end, budget):
+    """The action at uniform x in [0, 1) among the feasible ones, in action order."""
+    nf = 0
+    for j in range(n):
+        if _feasible(p, j, t, moves, horizon, action_next, to_end, budget):
+            nf += 1
+    pick = int(x * nf)
+    for j in range(n):
+        if _feasible(p, j, t, moves, horizon, action_next, to_end, budget):
+            if pick == 0:
+                return j
+            pick -= 1
+    return -1
+
+
 @nb.njit(cache=True)
 def _train(
     n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
     start, initial_aoi, n_actions, action_upload, action_next, voi_reward,
     field_word, field_shift, field_width, table, tablef, pool, counts, rng,
+    masked, to_end, budget,
 ):
     """Run up to n_episodes episodes; stop early (at an episode boundary) when the table could
     overflow during the next one. counts = [entries, pool used]; eps[0] and rng[0] are updated
@@ -56,15 +96,17 @@ def _train(
     # the packed key is updated in place each step: every age field +1 (and the slot field,
     # if in the state), then the new position and, on an upload, that sensor's two fields
     key0 = np.empty(W, np.uint64)
-    _encode(start, initial_aoi, np.zeros(N, np.int64), 0, field_word, field_shift, key0)
+    _encode(start, initial_aoi, np.zeros(N, np.int64), 0, 0, field_word, field_shift, key0)
+    n_fields = field_word.shape[0]
+    moves_field = n_fields > 2 * N + 2  # the moves made are part of the state
     key = np.empty(W, np.uint64)
     inc = np.zeros(W, np.uint64)
     for i in range(N):
         inc[field_word[1 + 2 * i]] += np.uint64(1) << np.uint64(field_shift[1 + 2 * i])
     if slot_in_state:
         inc[field_word[2 * N + 1]] += np.uint64(1) << np.uint64(field_shift[2 * N + 1])
-    clear = np.empty(2 + 2 * N, np.uint64)  # ~(field mask) per field
-    for f in range(2 + 2 * N):
+    clear = np.empty(n_fields, np.uint64)  # ~(field mask) per field
+    for f in range(n_fields):
         clear[f] = ~(((np.uint64(1) << np.uint64(field_width[f])) - np.uint64(1)) << np.uint64(field_shift[f]))
     ps, pclear = np.uint64(field_shift[0]), clear[0]  # the position is in word 0
     inc0 = inc[0]
@@ -78,6 +120,7 @@ def _train(
             counts[0], counts[1] = n_states, used
             return ep
         p = start
+        moves = 0
         for i in range(N):
             aoi[i] = initial_aoi[i]
             qidx[i] = 0
@@ -96,7 +139,14 @@ def _train(
             x = float(_mix(state) >> _S11) * _TWO_M53
             if x < epsilon:
                 state += _GOLDEN
-                k = int(float(_mix(state) >> _S11) * _TWO_M53 * n_actions[p])
+                x2 = float(_mix(state) >> _S11) * _TWO_M53
+                if masked:
+                    k = _masked_draw(x2, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+                else:
+                    k = int(x2 * n_actions[p])
+            elif masked:
+                row0 = np.int64(table[cur, META] >> _ARG_BITS) - 1
+                k, _ = _masked_best(pool, row0, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
             else:
                 k = _greedy(table, cur)
             u = action_upload[p, k]
@@ -107,6 +157,11 @@ def _train(
             for w in range(1, W):
                 key[w] += inc[w]
             k0 = (k0 & pclear) | (np.uint64(p_next) << ps)
+            if moves_field and p_next != p:
+                moves += 1
+                k0 = _set_field(k0, key, 2 * N + 2, moves, field_word, field_shift, clear)
+            elif p_next != p:
+                moves += 1
             if u >= 0:
                 aoi[u] = 1
                 qidx[u] = 1 + p
@@ -128,7 +183,11 @@ def _train(
                 r = r - penalty
             # find s_{t+1}; store it unless it is s_T (never acted in)
             nxt, found = _find(k0, key, table)
-            if found:
+            if found and masked and t + 1 < horizon:  # the best feasible action of s_{t+1}
+                row1 = np.int64(table[nxt, META] >> _ARG_BITS) - 1
+                _, future = _masked_best(pool, row1, p_next, t + 1, moves, n_actions[p_next], horizon, action_next,
+                                         to_end, budget)
+            elif found:
                 future = tablef[nxt, QMAX]
             else:
                 future = q_init
@@ -168,19 +227,29 @@ def _train(
 
 @nb.njit(cache=True)
 def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_upload, action_next,
-             field_word, field_shift, table):
-    """The greedy plan of the table: first maximal action in each state (action 0 if unseen)."""
+             field_word, field_shift, table, pool, masked, to_end, budget):
+    """The greedy plan of the table: first maximal action in each state (action 0 if unseen);
+    with a mask, the first maximal feasible one (the first feasible one if unseen)."""
     N = initial_aoi.shape[0]
+    W = table.shape[1] - 2
     aoi = initial_aoi.copy()
     qidx = np.zeros(N, np.int64)
-    key = np.empty(table.shape[1] - 2, np.uint64)
+    key = np.empty(W, np.uint64)
     idx = np.empty(horizon, np.int64)
     sched = np.empty(horizon, np.int64)
     p = start
+    moves = 0
     for t in range(horizon):
-        _encode(p, aoi, qidx, t * slot_in_state, field_word, field_shift, key)
+        _encode(p, aoi, qidx, t * slot_in_state, moves, field_word, field_shift, key)
         s, found = _find(key[0], key, table)
-        k = _greedy(table, s) if found else 0
+        if masked:
+            if found:
+                row = np.int64(table[s, W] >> _ARG_BITS) - 1
+                k, _ = _masked_best(pool, row, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+            else:
+                k = _masked_draw(0.0, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+        else:
+            k = _greedy(table, s) if found else 0
         u = action_upload[p, k]
         idx[t] = p
         sched[t] = u
@@ -189,6 +258,8 @@ def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_uploa
         if u >= 0:
             aoi[u] = 1
             qidx[u] = 1 + p
+        if action_next[p, k] != p:
+            moves += 1
         p = action_next[p, k]
     return idx, sched
 
@@ -204,7 +275,7 @@ def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, e
             model.reward == "aoi", int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
             model.action_upload, model.action_next, model.voi_reward, model.field_word,
             model.field_shift, model.field_width, table.table, table.table.view(np.float64), table.pool,
-            table.counts, rng,
+            table.counts, rng, model.masked, model.to_end, model.budget,
         )
         if done < n_episodes and not table.grow():
             return done, False
@@ -215,5 +286,6 @@ def rollout(model: mdp_mod.MDP, table: QTable) -> tuple[np.ndarray, np.ndarray]:
     """(point indices, schedule with -1) of the greedy plan of the table."""
     return _rollout(
         model.horizon, int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions, model.action_upload,
-        model.action_next, model.field_word, model.field_shift, table.table,
+        model.action_next, model.field_word, model.field_shift, table.table, table.pool, model.masked, model.to_end,
+        model.budget,
     )

@@ -32,7 +32,7 @@ MAX_ACTIONS = 1 << 16
 
 
 @nb.njit(cache=True, inline="always")
-def _encode(p, aoi, qidx, slot, field_word, field_shift, key):
+def _encode(p, aoi, qidx, slot, moves, field_word, field_shift, key):
     key[:] = 0
     key[field_word[0]] |= np.uint64(p) << np.uint64(field_shift[0])
     N = aoi.shape[0]
@@ -41,6 +41,8 @@ def _encode(p, aoi, qidx, slot, field_word, field_shift, key):
         key[field_word[f]] |= np.uint64(aoi[i]) << np.uint64(field_shift[f])
         key[field_word[f + 1]] |= np.uint64(qidx[i]) << np.uint64(field_shift[f + 1])
     key[field_word[2 * N + 1]] |= np.uint64(slot) << np.uint64(field_shift[2 * N + 1])
+    if field_word.shape[0] > 2 * N + 2:  # the moves made, with a binding budget
+        key[field_word[2 * N + 2]] |= np.uint64(moves) << np.uint64(field_shift[2 * N + 2])
 
 
 @nb.njit(cache=True, inline="always")

@@ -3,10 +3,14 @@
 A dict keyed by state tuples holds one list of Q-values per state (its feasible actions, in the
 order of voiopt/models/mdp.py); random numbers are the same splitmix64 stream as the kernel's.
 Used by tests/solvers/test_qlearning.py and benchmarks/qlearning_speed.py: the readable
-statement of what the kernels compute.
+statement of what the kernels compute. With an end or a budget (MODEL.md section 9), actions
+that leave no way to end are masked: exploration draws among the feasible ones, and the greedy
+choice and the bootstrap maximum range over them.
 """
 
 from __future__ import annotations
+
+import numpy as np
 
 _M64 = (1 << 64) - 1
 
@@ -37,19 +41,26 @@ def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75,
             Q[state] = [q_init] * int(model.n_actions[state[0]])
         return Q[state]
 
+    def first_max(q, allowed):
+        return max(allowed, key=lambda j: (q[j], -j))
+
+    def feasible(state, t, q):  # the paper's model needs no mask: every action, at no cost
+        return range(len(q)) if not model.masked else np.flatnonzero(model.feasible(state, t)).tolist()
+
     for _ in range(episodes):
         state = model.initial_state()
         q = row(state)
         for t in range(T):
+            allowed = feasible(state, t, q)
             x = rng.uniform()
             if x < eps:
-                k = int(rng.uniform() * len(q))
+                k = allowed[int(rng.uniform() * len(allowed))]
             else:
-                k = max(range(len(q)), key=lambda j: (q[j], -j))  # first maximum
+                k = first_max(q, allowed)
             nxt, r = model.step(state, k)
             if t + 1 < T:
                 q_next = row(nxt)
-                future = max(q_next)
+                future = max(q_next[j] for j in feasible(nxt, t + 1, q_next))
             else:
                 future = max(Q[nxt]) if nxt in Q else q_init
                 q_next = None
@@ -59,9 +70,10 @@ def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75,
 
     idx, sched = [], []
     state = model.initial_state()
-    for _ in range(T):
+    for t in range(T):
         q = Q.get(state)
-        k = 0 if q is None else max(range(len(q)), key=lambda j: (q[j], -j))
+        allowed = feasible(state, t, q or [0] * int(model.n_actions[state[0]]))
+        k = allowed[0] if q is None else first_max(q, allowed)
         idx.append(state[0])
         sched.append(int(model.action_upload[state[0], k]))
         state, _ = model.step(state, k)
