@@ -43,6 +43,7 @@ def field_instances(count: int = 24, seed: int = 777) -> list[voiopt.Instance]:
     """Tiny networks with the fields of MODEL.md section 9, each case making one of them (or
     all) bind: random blocked points, an end point, a move budget. Only instances the model
     admits are kept (the loader's BFS decides; the oracle's check_instance must agree)."""
+    import math
     import random
 
     rng = random.Random(seed)
@@ -54,8 +55,9 @@ def field_instances(count: int = 24, seed: int = 777) -> list[voiopt.Instance]:
         nx, ny = int(base.width) + 1, int(base.height) + 1
         points = [[x, y] for x in range(nx) for y in range(ny) if [x, y] != list(map(int, base.start))]
         which = k % 4  # 0: blocked, 1: end, 2: max_moves, 3: all three
-        if which in (0, 3):
-            d["blocked"] = rng.sample(points, rng.randint(1, max(1, len(points) // 3)))
+        if which in (0, 3):  # mostly near sensors, where an obstacle changes what can be uploaded
+            near = [p for p in points if any(math.dist(p, s.position) <= 1.5 for s in base.sensors)] or points
+            d["blocked"] = rng.sample(near, rng.randint(1, max(1, (len(near) + 1) // 2)))
         if which in (1, 3):
             free = [p for p in points if p not in d.get("blocked", [])]
             d["end"] = rng.choice(free + [list(map(int, base.start))])
