@@ -9,11 +9,19 @@ One process, one core, networks solved one after another. Targets (issue 5):
     t50    N = 4, T = 50, 10 x 10, 20 networks, 60 s  >= 18 certified
     n8     N = 8, T = 30, 5 x 5, 20 networks, 60 s    median proven gap < 1 %
 
+With the field rules of MODEL.md section 9 (issue 13; no targets, a measurement):
+
+    walls    N = 4, T = 30, 5 x 5, 20 % blocked, back to the start, at most 20 moves
+    f4, f8   the factory preset (20 x 20 m, racks, dock at (0, 0)) with N = 4 and 8, T = 30
+    f4t60    the factory preset, N = 4, T = 60
+    f12t100  the factory preset, N = 12, T = 100 (a budget of 80 % of the slots throughout)
+
 Usage:
     python benchmarks/exact_scale.py                       # everything (long: run it in the background)
     python benchmarks/exact_scale.py --settings paper      # one part
     python benchmarks/exact_scale.py --settings n6,n8 --networks 5 --objectives mean-min-voi
     python benchmarks/exact_scale.py --settings paper --no-collapse   # measure one ingredient
+    python benchmarks/exact_scale.py --settings walls,f4,f8,f4t60,f12t100 --networks 4 --time-limit 30
 """
 
 from __future__ import annotations
@@ -34,14 +42,26 @@ SETTINGS = {
     "n6": dict(n_sensors=6, horizon=30, size=5.0, networks=20, time_limit=60.0),
     "t50": dict(n_sensors=4, horizon=50, size=10.0, networks=20, time_limit=60.0),
     "n8": dict(n_sensors=8, horizon=30, size=5.0, networks=20, time_limit=60.0),
+    # the field model (MODEL.md section 9): the paper's square with obstacles, a dock and a budget,
+    "walls": dict(n_sensors=4, horizon=30, size=5.0, networks=20, time_limit=60.0, blocked_fraction=0.2,
+                  end="start", max_moves=20),
+    # and the factory preset (20 x 20 m, racks, the dock at a corner, a budget of 80 % of the slots)
+    "f4": dict(n_sensors=4, horizon=30, size=20.0, networks=8, time_limit=60.0, preset="factory"),
+    "f8": dict(n_sensors=8, horizon=30, size=20.0, networks=8, time_limit=60.0, preset="factory"),
+    "f4t60": dict(n_sensors=4, horizon=60, size=20.0, networks=8, time_limit=60.0, preset="factory"),
+    "f12t100": dict(n_sensors=12, horizon=100, size=20.0, networks=8, time_limit=60.0, preset="factory"),
 }
 
 
 def networks(name: str, count: int, seed: int) -> list[voiopt.Instance]:
     s = SETTINGS[name]
+    if s.get("preset") == "factory":
+        return voiopt.generate_set(count, seed=seed, preset="factory", n_sensors=s["n_sensors"], horizon=s["horizon"],
+                                   max_moves=int(0.8 * (s["horizon"] - 1)), name=f"{name}-seed{seed}")
+    fields = {k: s[k] for k in ("blocked_fraction", "end", "max_moves") if k in s}
     return voiopt.generate_set(count, seed=seed, n_sensors=s["n_sensors"], horizon=s["horizon"],
                                width=s["size"], height=s["size"], rho=(0.0, 1.0), power_w=1.0,
-                               name=f"{name}-seed{seed}")
+                               name=f"{name}-seed{seed}", **fields)
 
 
 def main(argv: list[str] | None = None) -> int:

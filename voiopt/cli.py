@@ -12,13 +12,13 @@ from rich.console import Console
 from rich.table import Table
 
 import voiopt
+from voiopt import fields, lattice
 from voiopt import instance as instance_mod
-from voiopt import lattice
 from voiopt._files import check_output_dir, check_output_file
 from voiopt.errors import OptionError, VoioptError
 from voiopt.experiments.runner import WorkerDied
+from voiopt.generate import PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
-from voiopt.generate import generate_set, write_set
 from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
@@ -88,19 +88,41 @@ def cmd_evaluate(args) -> int:
     return 0
 
 
-def cmd_generate(args) -> int:
-    kwargs = dict(
-        n_sensors=args.sensors, horizon=args.horizon, width=args.width, height=args.height,
-        step=args.step, rho=tuple(args.rho), power_w=args.power, initial_aoi=tuple(args.initial_aoi),
+def _generate_options(args) -> dict:
+    """The generator's keyword options: the paper's networks, or a preset's."""
+    end = None if args.end is None else fields.parse_end(args.end)
+    if args.preset == "factory":
+        given = [flag for flag, v in (("--width", args.width), ("--height", args.height), ("--step", args.step),
+                                      ("--rho", args.rho), ("--power", args.power), ("--initial-aoi", args.initial_aoi),
+                                      ("--blocked-fraction", args.blocked_fraction), ("--end", args.end))
+                 if v is not None]
+        if given:
+            raise OptionError(f"{given[0]}: the factory preset fixes the floor, racks, dock and sensors; it takes "
+                              "--sensors, --horizon and --max-moves")
+        return dict(n_sensors=args.sensors, horizon=args.horizon or fields.FACTORY_HORIZON,
+                    max_moves=fields.FACTORY_MAX_MOVES if args.max_moves is None else args.max_moves)
+    pick = lambda v, default: default if v is None else v  # noqa: E731
+    return dict(
+        n_sensors=pick(args.sensors, 4), horizon=pick(args.horizon, 30), width=pick(args.width, 5.0),
+        height=pick(args.height, 5.0), step=pick(args.step, 1.0), rho=tuple(pick(args.rho, [0.0, 1.0])),
+        power_w=pick(args.power, 1.0), initial_aoi=tuple(pick(args.initial_aoi, [1, 1])),
+        blocked_fraction=pick(args.blocked_fraction, 0.0), end=end, max_moves=args.max_moves,
     )
+
+
+def cmd_generate(args) -> int:
+    kwargs = _generate_options(args)
     if args.out is None:
         if args.count != 1:
             raise OptionError("--count: more than one network needs --out DIR")
-        inst = generate_one(seed=args.seed, name=args.name, **kwargs)
+        if args.preset == "factory":
+            inst = fields.factory(seed=args.seed, name=args.name, **kwargs)
+        else:
+            inst = generate_one(seed=args.seed, name=args.name, **kwargs)
         print(json.dumps(inst.to_dict(), indent=2))
         return 0
     check_output_dir(args.out, "--out")
-    insts = generate_set(args.count, seed=args.seed, name=args.name, **kwargs)
+    insts = generate_set(args.count, seed=args.seed, preset=args.preset, name=args.name, **kwargs)
     paths = write_set(insts, args.out)
     out.print(f"wrote {len(paths)} instance(s) to {args.out}", markup=False)
     return 0
@@ -243,15 +265,26 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("plan", metavar="PLAN", help="a plan object or a whole result JSON")
     s.add_argument("--json", action="store_true", help="print a JSON object with key 'metrics'")
 
-    s = _command(sub, "generate", "random networks with the paper's distributions", cmd_generate)
-    s.add_argument("--sensors", type=int, default=4, help="N (default 4)")
-    s.add_argument("--horizon", type=int, default=30, help="T (default 30)")
-    s.add_argument("--width", type=float, default=5.0)
-    s.add_argument("--height", type=float, default=5.0)
-    s.add_argument("--step", type=float, default=1.0)
-    s.add_argument("--rho", type=float, nargs=2, default=[0.0, 1.0], metavar=("LO", "HI"), help="rho ~ U(LO, HI)")
-    s.add_argument("--power", type=float, default=1.0, help="P in watts (default 1)")
-    s.add_argument("--initial-aoi", type=int, nargs=2, default=[1, 1], metavar=("LO", "HI"))
+    s = _command(sub, "generate", "random networks with the paper's distributions, or factory floors", cmd_generate)
+    s.add_argument("--preset", choices=PRESETS, default=None,
+                   help="factory: a 20 x 20 m floor with racks, the dock at (0, 0) as start and end, 10-30 sensors "
+                        "(or --sensors), T = 100 (or --horizon), max_moves 80 (or --max-moves)")
+    s.add_argument("--sensors", type=int, default=None, help="N (default 4)")
+    s.add_argument("--horizon", type=int, default=None, help="T (default 30)")
+    s.add_argument("--width", type=float, default=None, help="metres (default 5)")
+    s.add_argument("--height", type=float, default=None, help="metres (default 5)")
+    s.add_argument("--step", type=float, default=None, help="metres (default 1)")
+    s.add_argument("--rho", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="rho ~ U(LO, HI) (default 0 1)")
+    s.add_argument("--power", type=float, default=None, help="P in watts (default 1)")
+    s.add_argument("--initial-aoi", type=int, nargs=2, default=None, metavar=("LO", "HI"), help="(default 1 1)")
+    s.add_argument("--blocked-fraction", type=float, default=None, metavar="F",
+                   help="block this fraction of the lattice points at random, keeping the free ones connected "
+                        "(default 0)")
+    s.add_argument("--end", default=None, metavar="start|random|X,Y",
+                   help="the point of the last slot: the start, a random reachable point, or X,Y (default: none)")
+    s.add_argument("--max-moves", type=int, default=None, metavar="K",
+                   help="at most K slots with a move (default: no budget)")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--count", type=int, default=1)
     s.add_argument("--name", default=None, help="name prefix of the instances")

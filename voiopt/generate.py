@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from voiopt import _files
+from voiopt import _files, fields
 from voiopt import instance as instance_mod
 from voiopt.errors import OptionError, PlanError
 from voiopt.instance import Channel, Instance, Sensor
@@ -28,11 +28,20 @@ def generate(
     channel: Channel | None = None,
     seed: int | np.random.SeedSequence = 0,
     name: str | None = None,
+    blocked_fraction: float = 0.0,
+    end: str | tuple[float, float] | None = None,
+    max_moves: int | None = None,
 ) -> Instance:
     """One random network: sensors uniform in the area, start uniform on the lattice,
     rho ~ U(rho[0], rho[1]) (redrawn in the rare case it hits 0 or 1), initial AoI uniform
-    on the integers initial_aoi[0]..initial_aoi[1]. Same seed, same network."""
+    on the integers initial_aoi[0]..initial_aoi[1]. Same seed, same network.
+
+    The field rules of MODEL.md section 9, drawn after everything else (so the paper's
+    networks do not change): ``blocked_fraction`` of the lattice points blocked at random,
+    never the start or end and never cutting the free points apart; ``end`` "start", "random"
+    (a free point the entity can reach in time and budget) or a point (x, y); ``max_moves``."""
     _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi)
+    fields.check_options(blocked_fraction, end, max_moves, horizon)
     rng = np.random.default_rng(seed)
     channel = channel or Channel()
     nx = int(np.floor(width / step + instance_mod.LATTICE_TOL)) + 1
@@ -50,19 +59,32 @@ def generate(
         s = seed.entropy if isinstance(seed, np.random.SeedSequence) else seed
         name = f"n{n_sensors}-t{horizon}-seed{s}"
     inst = Instance(name, float(width), float(height), int(horizon), start, tuple(sensors), float(step), channel)
+    if blocked_fraction or end is not None or max_moves is not None:
+        inst = fields.draw(inst, rng, blocked_fraction, end, max_moves)
     return instance_mod.from_dict(inst.to_dict())  # validated like any file
 
 
-def generate_set(count: int, seed: int = 0, **kwargs) -> list[Instance]:
-    """``count`` independent networks; network k depends only on (seed, k)."""
+PRESETS = ("factory",)
+
+
+def generate_set(count: int, seed: int = 0, preset: str | None = None, **kwargs) -> list[Instance]:
+    """``count`` independent networks; network k depends only on (seed, k). ``preset``
+    "factory" draws factory floors (fields.factory, which takes n_sensors, horizon and
+    max_moves) instead of the paper's networks."""
     if count < 1:
         raise OptionError(f"count: must be >= 1, got {count}")
+    if preset is not None and preset not in PRESETS:
+        raise OptionError(f"preset: must be one of {', '.join(PRESETS)}, got {preset!r}")
     base = kwargs.pop("name", None)
     children = np.random.SeedSequence(seed).spawn(count)
     out = []
     for k, child in enumerate(children):
         n = kwargs.get("n_sensors", 4)
         t = kwargs.get("horizon", 30)
+        if preset == "factory":
+            name = f"{base or f'factory-seed{seed}'}-{k:03d}"
+            out.append(fields.factory(seed=child, name=name, **kwargs))
+            continue
         name = f"{base or f'n{n}-t{t}-seed{seed}'}-{k:03d}"
         out.append(generate(seed=child, name=name, **kwargs))
     return out

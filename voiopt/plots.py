@@ -75,7 +75,8 @@ def draw_plan(ax, instance: Instance, plan: Plan, title: str = "") -> None:
     from matplotlib.patches import Circle
 
     lat = lattice_mod.build(instance)
-    ax.scatter(lat.points[:, 0], lat.points[:, 1], s=4, color="0.8", zorder=1)
+    ax.scatter(lat.points[~lat.blocked, 0], lat.points[~lat.blocked, 1], s=4, color="0.8", zorder=1)
+    _draw_field_rules(ax, instance, plan)
     for i, s in enumerate(instance.sensors):
         ax.add_patch(Circle(s.position, instance.channel.d_th, fill=False, ls=":", color="tab:red", alpha=0.5))
         ax.scatter(*s.position, marker="x", s=60, color="tab:red", zorder=4)
@@ -95,6 +96,25 @@ def draw_plan(ax, instance: Instance, plan: Plan, title: str = "") -> None:
     ax.set_ylim(-0.4, instance.height + 0.4)
     ax.set_aspect("equal")
     ax.set_title(title, fontsize=9)
+
+
+def _draw_field_rules(ax, instance: Instance, plan: Plan) -> None:
+    """MODEL.md section 9: blocked points as filled squares, the end point (the dock) marked,
+    and the budget with the moves the plan makes in the legend."""
+    from matplotlib.patches import Rectangle
+
+    step = instance.step
+    for k, (x, y) in enumerate(instance.blocked):
+        ax.add_patch(Rectangle((x - step / 2, y - step / 2), step, step, color="0.35", zorder=0,
+                               label="blocked" if k == 0 else None))
+    if instance.end is not None:
+        ax.scatter(*instance.end, marker="D", s=110, facecolor="none", edgecolor="tab:green", lw=1.6, zorder=5,
+                   label="end (dock)")
+    if instance.max_moves is not None:
+        moves = sum(a != b for a, b in zip(plan.positions, plan.positions[1:], strict=False))
+        ax.plot([], [], " ", label=f"moves {moves} of max_moves {instance.max_moves} ({instance.max_moves - moves} left)")
+    if instance.has_field_rules:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=2, fontsize=7, frameon=False)
 
 
 def plot_result(result: Result, instance: Instance, path: str | os.PathLike) -> None:
