@@ -6,6 +6,7 @@ from __future__ import annotations
 import gymnasium
 import numpy as np
 import pytest
+from conftest import ROOT
 from gymnasium.utils.env_checker import check_env
 
 import voiopt
@@ -22,6 +23,12 @@ def small():
 @pytest.mark.parametrize("mode", ["ansi", "rgb_array"])
 def test_check_env_passes(case_study, mode):
     check_env(gymnasium.make(voienv.ENV_ID, instance=case_study, render_mode=mode).unwrapped)
+
+
+@pytest.mark.parametrize("mode", ["ansi", "rgb_array"])
+def test_check_env_passes_with_the_field_rules(mode):
+    dock = voiopt.load(ROOT / "instances" / "dock.json")  # blocked points, an end and a budget
+    check_env(gymnasium.make(voienv.ENV_ID, instance=dock, render_mode=mode).unwrapped)
 
 
 @pytest.mark.parametrize("reward", ["voi", "aoi"])
