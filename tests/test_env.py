@@ -1,7 +1,10 @@
-"""The Gymnasium environment: passes check_env, masks actions, and driven with the MILP's plan
-it pays exactly the rewards of MODEL.md section 7 computed from the simulator."""
+"""The Gymnasium environment as RL users expect it: check_env on sampled and loaded instances,
+action_masks(), a Dict observation, infeasible actions raised or penalised (never altered
+silently), plan() scored by the simulator, and the rewards of MODEL.md section 7."""
 
 from __future__ import annotations
+
+import random
 
 import gymnasium
 import numpy as np
@@ -12,7 +15,10 @@ from gymnasium.utils.env_checker import check_env
 import voiopt
 import voiopt.env as voienv
 from voiopt import lattice
+from voiopt.errors import OptionError
 from voiopt.simulate import simulate
+
+DOCK = ROOT / "instances" / "dock.json"
 
 
 @pytest.fixture(scope="module")
@@ -21,14 +27,78 @@ def small():
 
 
 @pytest.mark.parametrize("mode", ["ansi", "rgb_array"])
-def test_check_env_passes(case_study, mode):
-    check_env(gymnasium.make(voienv.ENV_ID, instance=case_study, render_mode=mode).unwrapped)
+@pytest.mark.parametrize("source", ["sampled", "case-study", "dock"])
+def test_check_env_passes(source, mode):
+    """check_env steps random actions, so infeasible ones are penalised here, not raised."""
+    kwargs = {} if source == "sampled" else {"instance": voiopt.load(ROOT / "instances" / f"{source}.json")}
+    env = gymnasium.make(voienv.ENV_ID, render_mode=mode, infeasible="penalise", observe_sensors=True, **kwargs)
+    check_env(env.unwrapped)
 
 
-@pytest.mark.parametrize("mode", ["ansi", "rgb_array"])
-def test_check_env_passes_with_the_field_rules(mode):
-    dock = voiopt.load(ROOT / "instances" / "dock.json")  # blocked points, an end and a budget
-    check_env(gymnasium.make(voienv.ENV_ID, instance=dock, render_mode=mode).unwrapped)
+def test_make_without_arguments_samples_paper_networks():
+    env = gymnasium.make(voienv.ENV_ID).unwrapped
+    env.reset(seed=1)
+    first = env.instance
+    env.reset(seed=2)
+    assert env.instance != first and env.instance.n_sensors == 4 and env.instance.horizon == 30
+    env.reset(seed=1)
+    assert env.instance == first  # the seed decides the network
+
+
+def test_loading_an_instance_of_another_size_is_refused():
+    env = gymnasium.make(voienv.ENV_ID).unwrapped
+    with pytest.raises(OptionError, match="this env's spaces are for N=4"):
+        env.reset(options={"instance": str(ROOT / "instances" / "case-study.json")})
+    same = voiopt.generate(4, 30, seed=99)
+    _, info = env.reset(options={"instance": same})
+    assert info["instance"] == same.name
+
+
+def test_observation_layout(small):
+    env = voienv.VoIEnv(small, observe_sensors=True)
+    obs, _ = env.reset()
+    assert set(obs) == {"position", "aoi", "q", "slot", "sensors", "rho"}
+    assert obs["slot"][0] == 0 and env.observation_space.contains(obs)
+    aoi0 = np.array([s.initial_aoi for s in small.sensors])
+    np.testing.assert_allclose(obs["aoi"], aoi0 / (aoi0.max() + small.horizon), rtol=1e-6)
+    np.testing.assert_allclose(obs["position"], np.array(small.start) / [small.width, small.height], rtol=1e-6)
+
+
+def test_infeasible_actions_raise_or_are_penalised(case_study):
+    env = voienv.VoIEnv(case_study, reward_units="bit/s/Hz")  # V/B < 1: the penalty shows
+    env.reset()
+    mask = env.action_masks()
+    bad = int(np.flatnonzero(~mask)[0])
+    with pytest.raises(OptionError, match="is infeasible in slot 0"):
+        env.step(bad)
+    env = voienv.VoIEnv(case_study, reward_units="bit/s/Hz", infeasible="penalise", render_mode="ansi")
+    env.reset()
+    obs, r, _, _, info = env.step(bad)
+    assert info["infeasible"] and r < -199  # idle and infeasible: two penalties
+    text = env.render()
+    assert text.count("R") == 1 and "slot 1/10" in text and "sensor 2 at" in text
+
+
+@pytest.mark.parametrize("path", ["case-study", "dock"])
+@pytest.mark.parametrize("mode", ["paper", "normalised"])
+def test_random_masked_rollout_plan_matches_the_summed_reward(path, mode):
+    inst = voiopt.load(ROOT / "instances" / f"{path}.json")
+    env = voienv.VoIEnv(inst, reward_mode=mode)
+    rng = random.Random(7)
+    for episode in range(3):
+        _, info = env.reset(seed=episode)
+        total, done = 0.0, False
+        while not done:
+            a = rng.choice(np.flatnonzero(env.action_masks()).tolist())
+            _, r, done, _, info = env.step(a)
+            total += r
+        value = voiopt.evaluate(inst, env.plan())["mean-min-voi"]  # a whole, legal plan
+        T = inst.horizon
+        if mode == "paper":  # the documented rule: (sum r + penalty * idle slots) / T
+            expect = (total + 100.0 * info["idle_slots"]) / T
+        else:  # sum r * optimum / T
+            expect = total * env.optimum() / T
+        assert value == pytest.approx(expect, rel=1e-9)
 
 
 @pytest.mark.parametrize("reward", ["voi", "aoi"])
@@ -37,11 +107,10 @@ def test_milp_plan_through_the_env_pays_the_simulators_rewards(small, reward):
     assert result.status == "optimal"
     plan, traj = result.plan, simulate(small, result.plan)
     lat = lattice.build(small)
-    env = gymnasium.make(voienv.ENV_ID, instance=small, reward=reward)
+    env = gymnasium.make(voienv.ENV_ID, instance=small, reward=reward).unwrapped
     obs, info = env.reset(seed=0)
     for t in range(small.horizon):
         p = traj.positions[t]
-        assert tuple(lat.coords[p]) == tuple(obs[:2])
         move = 0 if t + 1 == small.horizon else _move(lat, p, lat.index(*plan.positions[t + 1]))
         u = plan.schedule[t]
         action = (0 if u is None else u + 1) * 5 + move
@@ -50,26 +119,13 @@ def test_milp_plan_through_the_env_pays_the_simulators_rewards(small, reward):
         idle = 100.0 if u is None else 0.0
         expect = traj.voi[t + 1].min() - idle if reward == "voi" else -traj.aoi[t + 1].max() - idle
         assert r == pytest.approx(expect, rel=1e-12)
-        assert info["feasible"] and not truncated
+        assert not info["infeasible"] and not truncated
         assert terminated == (t + 1 == small.horizon)
-        np.testing.assert_array_equal(obs[2:2 + small.n_sensors], traj.aoi[t + 1])
+    assert env.plan() == plan
 
 
 def _move(lat, p, q):
     return int(np.flatnonzero(lat.neighbors[p] == q)[0])
-
-
-def test_mask_and_infeasible_actions(case_study):
-    env = voienv.VoIEnv(case_study, render_mode="ansi", reward_units="bit/s/Hz")  # V/B < 1: the penalty shows
-    _, info = env.reset()
-    mask = info["action_mask"]
-    assert mask.shape == (20,) and mask.sum() == env.model.n_actions[env.model.start]
-    bad = int(np.flatnonzero(~mask)[0])
-    obs, r, _, _, info = env.step(bad)
-    assert not info["feasible"] and r < -99  # executed without an upload: the idle penalty
-    np.testing.assert_array_equal(obs[2:5], np.array([2, 4, 4]) + 1)
-    text = env.render()
-    assert text.count("R") == 1 and "slot 1/10" in text
 
 
 def test_rgb_render_is_an_image(case_study):

@@ -21,6 +21,7 @@ def test_limits_give_their_own_reasons():
 
 
 def test_a_signal_stops_every_open_watch_and_one_asked_before_a_watch_opens_holds_inside_it():
+    before = signal.getsignal(signal.SIGTERM)
     with watch() as outer:
         with watch() as inner:
             os.kill(os.getpid(), signal.SIGTERM)
@@ -28,14 +29,16 @@ def test_a_signal_stops_every_open_watch_and_one_asked_before_a_watch_opens_hold
             assert inner.reason == outer.reason == INTERRUPTED and inner.signal == signal.SIGTERM
         with watch() as later:  # e.g. the next solve of a sweep, or one still starting up
             assert later.requested and later.signal == signal.SIGTERM
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored
+    assert signal.getsignal(signal.SIGTERM) is before  # restored
 
 
 def test_a_second_signal_raises_at_once():
+    """(The handler is restored to what it was: the default, or SIG_IGN under nohup or '&'.)"""
+    before = signal.getsignal(signal.SIGINT)
     with pytest.raises(Interrupted) as e, watch():
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(0.01)
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(0.01)
     assert e.value.exit_code == 130
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGINT) is before

@@ -1,20 +1,35 @@
-"""A Gymnasium environment over the MDP of models/mdp.py (the ``[rl]`` extra).
+"""A Gymnasium environment over the MDP of models/mdp.py (the ``[rl]`` extra), docs/qlearning.md.
 
-    import voiopt.env, gymnasium
-    env = gymnasium.make("voiopt/VoICollection-v0", instance=voiopt.load("instances/case-study.json"))
+    import gymnasium, voiopt.env
+    env = gymnasium.make("voiopt/VoICollection-v0")                 # a paper-style network per reset
+    env = gymnasium.make("voiopt/VoICollection-v0", instance=voiopt.load("instances/dock.json"))
+    obs, info = env.reset(seed=0, options={"instance": "instances/case-study.json"})
 
-Observation: MultiDiscrete [k, l, A_1..A_N, q_1..q_N] (lattice coordinates, ages, distance
-indices as in models/mdp.py). Action: Discrete((N + 1) * 5), number = upload * 5 + move with
-upload 0 = none, 1 + i = sensor i, move 0..4 = stay, N, S, E, W. ``info["action_mask"]`` marks
-the feasible actions (with the field rules of MODEL.md section 9: never onto a blocked point,
-and always with a way left to ``end`` within the slots and the ``max_moves`` budget); an
-infeasible one is executed as its feasible part (no upload, and its move if feasible, else
-stay, or the first move of the way to end) with ``info["feasible"] = False``, so every rollout
-is a legal plan. An episode is T slots.
+Action: Discrete((N + 1) * 5), number = upload * 5 + move with upload 0 = none, 1 + i =
+sensor i, move 0..4 = stay, N, S, E, W. ``action_masks()`` (sb3-contrib's name) and
+``info["action_mask"]`` mark the feasible actions: in range, on the area, never onto a blocked
+point, and with a way left to ``end`` in the slots and moves left (MODEL.md section 9). An
+infeasible action raises ``OptionError`` (``infeasible="raise"``, the default); with
+``infeasible="penalise"`` it is executed as its feasible part (no upload, its move if feasible,
+else the first move of the way to end), ``penalty`` is subtracted and ``info["infeasible"]``
+says so. Nothing is altered silently, and every episode is a legal plan (``plan()``).
+
+Observation, a Dict of float32 arrays in [0, 1] (docs/qlearning.md):
+``position`` (2,) = lattice point / area; ``aoi`` (N,) = A_i / (max A_i(0) + T);
+``q`` (N,) = q_i / (area diagonal); ``slot`` (1,) = t / T; with ``observe_sensors=True`` also
+``sensors`` (N, 2) = positions / area and ``rho`` (N,).
+
+Reward: ``reward_mode="paper"`` (MODEL.md section 7: min_i V_i(t+1) in bit/s, or V/B, or
+-max_i A_i(t+1), minus ``penalty`` when nothing is uploaded), or ``"normalised"``: min_i V_i(t+1)
+divided by the instance's certified ``mean-min-voi`` optimum (VoI-Lib's certificate when the
+instance is in VoI-Lib, else dp's), no penalty. Over an episode the plan's ``mean-min-voi`` is
+then (sum of rewards) * optimum / T, or, with the paper's VoI reward, (sum of rewards + penalty *
+idle slots) / T (``info["idle_slots"]``).
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -27,12 +42,18 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the installed extras
     raise MissingExtraError("gymnasium", "rl") from e
 
+from voiopt import instance as instance_mod
 from voiopt import lattice as lattice_mod
+from voiopt.generate import generate as generate_network
 from voiopt.instance import Instance
 from voiopt.models import mdp as mdp_mod
+from voiopt.plan import Plan
 
 ENV_ID = "voiopt/VoICollection-v0"
 CELL = 24  # pixels per lattice point in rgb_array renders
+SAMPLE = dict(n_sensors=4, horizon=30, width=5.0, height=5.0)  # the paper's setting, for sampled networks
+REWARD_MODES = ("paper", "normalised")
+INFEASIBLE = ("raise", "penalise")
 
 
 class VoIEnv(gym.Env):
@@ -40,51 +61,95 @@ class VoIEnv(gym.Env):
 
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
 
-    def __init__(self, instance: Instance, reward: str = "voi", render_mode: str | None = None,
-                 penalty: float = mdp_mod.IDLE_PENALTY, reward_units: str = "bit/s"):
+    def __init__(self, instance: Instance | None = None, reward: str = "voi", render_mode: str | None = None,
+                 penalty: float = mdp_mod.IDLE_PENALTY, reward_units: str = "bit/s", reward_mode: str = "paper",
+                 infeasible: str = "raise", observe_sensors: bool = False, sample: dict | None = None):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise OptionError(f"render_mode: must be 'ansi' or 'rgb_array', got {render_mode!r}")
-        self.instance = instance
-        self.model = mdp_mod.build(instance, reward, penalty, reward_units=reward_units)
-        self.lattice = lattice_mod.build(instance)
+        if reward_mode not in REWARD_MODES:
+            raise OptionError(f"reward_mode: must be 'paper' or 'normalised', got {reward_mode!r}")
+        if infeasible not in INFEASIBLE:
+            raise OptionError(f"infeasible: must be 'raise' or 'penalise', got {infeasible!r}")
         self.render_mode = render_mode
-        N, lat = instance.n_sensors, self.lattice
-        max_age = int(self.model.voi_reward.shape[1] - 1)
-        self.observation_space = spaces.MultiDiscrete(
-            [lat.nx, lat.ny] + [max_age + 1] * N + [lat.n_points + 1] * N, dtype=np.int64
-        )
+        self.options = dict(reward=reward, penalty=penalty, reward_units=reward_units)
+        self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
+        self.sample = None if instance is not None else {**SAMPLE, **(sample or {})}
+        self._load(instance if instance is not None else generate_network(seed=0, **self.sample))
+        lat, N = self.lattice, self.instance.n_sensors
+        box = lambda *shape: spaces.Box(0.0, 1.0, shape=shape, dtype=np.float32)  # noqa: E731
+        obs = {"position": box(2), "aoi": box(N), "q": box(N), "slot": box(1)}
+        if self.observe_sensors:
+            obs.update(sensors=box(N, 2), rho=box(N))
+        self.observation_space = spaces.Dict(obs)
         self.action_space = spaces.Discrete((N + 1) * 5)
-        # global action number -> per-point action number (or -1 if infeasible there)
-        self._local = np.full((lat.n_points, (N + 1) * 5), -1, dtype=np.int64)
+        self._shape = (N, lat.nx, lat.ny, self.instance.horizon)
+
+    # ------------------------------------------------------------------ the instance
+
+    def _load(self, instance: Instance) -> None:
+        self.instance = instance
+        self.model = mdp_mod.build(instance, self.options["reward"], self.options["penalty"],
+                                   reward_units=self.options["reward_units"])
+        self.lattice = lat = lattice_mod.build(instance)
+        N = instance.n_sensors
+        self._local = np.full((lat.n_points, (N + 1) * 5), -1, dtype=np.int64)  # global -> per-point action
         for p in range(lat.n_points):
             for k, (u, m) in enumerate(self.model.actions(p)):
                 self._local[p, (u + 1) * 5 + m] = k
-        self.state = self.model.initial_state()
-        self.t = 0
+        self._max_age = float(self.model.initial_aoi.max() + instance.horizon)
+        self._diagonal = math.hypot(instance.width, instance.height)
+        self._optimum = None
+        self.state, self.t = self.model.initial_state(), 0
+        self._positions: list[int] = []
+        self._schedule: list[int] = []
 
-    def _obs(self) -> np.ndarray:
-        p, aoi, qidx, *_ = self.state
-        k, l = self.lattice.coords[p]
-        return np.array([k, l, *aoi, *qidx], dtype=np.int64)
+    def optimum(self) -> float:
+        """The certified mean-min-voi optimum that normalises the reward (cached)."""
+        if self._optimum is None:
+            from voiopt.experiments import voilib
+            from voiopt.solvers import dp
 
-    def action_mask(self) -> np.ndarray:
-        """Bool mask over the Discrete actions: feasible in the current state and slot (no
-        move off the area or onto a blocked point, and one that leaves a way to ``end`` within
-        the slots and moves left, MODEL.md section 9)."""
+            cert = voilib.certified(self.instance, "mean-min-voi")
+            self._optimum = cert if cert is not None else dp.solve(self.instance, "mean-min-voi").value
+        return self._optimum
+
+    # ------------------------------------------------------------------ gymnasium API
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        options = options or {}
+        unknown = set(options) - {"instance"}
+        if unknown:
+            raise OptionError(f"options: unknown key {sorted(unknown)[0]!r} (allowed: instance)")
+        if "instance" in options:
+            given = options["instance"]
+            inst = given if isinstance(given, Instance) else instance_mod.load(given)
+            self._check_fits(inst)
+            self._load(inst)
+        elif self.sample is not None:  # a fresh paper-style network from the env's own generator
+            self._load(generate_network(seed=int(self.np_random.integers(2**63)), **self.sample))
+        else:
+            self.state, self.t, self._positions, self._schedule = self.model.initial_state(), 0, [], []
+        self._idle = 0
+        return self._obs(), self._info()
+
+    def _check_fits(self, inst: Instance) -> None:
+        lat = lattice_mod.build(inst)
+        if (inst.n_sensors, lat.nx, lat.ny, inst.horizon) != self._shape:
+            N, nx, ny, T = self._shape
+            raise OptionError(f"options.instance: {inst.name} has N={inst.n_sensors}, a {lat.nx} x {lat.ny} lattice and "
+                              f"T={inst.horizon}; this env's spaces are for N={N}, {nx} x {ny}, T={T} "
+                              "(make a new env with instance=...)")
+
+    def action_masks(self) -> np.ndarray:
+        """Bool mask over the Discrete actions (sb3-contrib's MaskablePPO calls this)."""
         local = self._local[self.state[0]]
         mask = local >= 0
         if self.t < self.instance.horizon:
             mask[mask] = self.model.feasible(self.state, self.t)[local[mask]]
         return mask
 
-    def _info(self, feasible: bool = True) -> dict[str, Any]:
-        return {"action_mask": self.action_mask(), "slot": self.t, "feasible": feasible}
-
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
-        self.state = self.model.initial_state()
-        self.t = 0
-        return self._obs(), self._info()
+    action_mask = action_masks
 
     def step(self, action):
         a = int(action)
@@ -93,19 +158,62 @@ class VoIEnv(gym.Env):
         if self.t >= self.instance.horizon:
             raise RuntimeError("step() after the episode ended: call reset()")
         p = self.state[0]
-        mask = self.action_mask()
+        mask = self.action_masks()
         feasible = bool(mask[a])
+        if not feasible and self.infeasible == "raise":
+            raise OptionError(f"action {a} (upload {a // 5 - 1 if a >= 5 else 'none'}, move {a % 5}) is infeasible in "
+                              f"slot {self.t} (see action_masks())")
         k = int(self._local[p, a])
-        if not feasible:  # no upload, the move if feasible, else the first move of the way to end
+        if not feasible:  # penalised: no upload, the move if feasible, else the first move of the way to end
             move = a % 5
             if not mask[move]:
                 home = self.lattice.walk_home(p, 1)[0]
                 move = next(m for m in range(5) if self.lattice.neighbors[p, m] == home)
             k = int(self._local[p, move])
+        u = int(self.model.action_upload[p, k])
+        self._positions.append(p)
+        self._schedule.append(u)
+        self._idle += u < 0
         self.state, reward = self.model.step(self.state, k)
+        if self.reward_mode == "normalised":
+            _, aoi, qidx, *_ = self.state
+            reward = min(float(self.model.voi_reward[i, a_, q]) for i, (a_, q) in enumerate(zip(aoi, qidx, strict=True)))
+            if self.options["reward_units"] == "bit/s/Hz":
+                reward *= self.instance.channel.bandwidth_hz
+            reward /= self.optimum()
+        if not feasible:
+            reward -= self.options["penalty"]
         self.t += 1
         terminated = self.t >= self.instance.horizon
-        return self._obs(), float(reward), terminated, False, self._info(feasible)
+        info = self._info()
+        info["infeasible"] = not feasible
+        return self._obs(), float(reward), terminated, False, info
+
+    def plan(self) -> Plan:
+        """The episode's plan so far (a whole plan, which ``voiopt evaluate`` scores, after T steps)."""
+        return Plan.from_indices(self.instance, self._positions, self._schedule)
+
+    def _obs(self) -> dict[str, np.ndarray]:
+        p, aoi, qidx, *_ = self.state
+        inst, lat = self.instance, self.lattice
+        dist = np.array([inst.initial_distance(i) if q == 0 else lat.distance[i, q - 1] for i, q in enumerate(qidx)])
+        obs = {
+            "position": (lat.points[p] / [inst.width, inst.height]).astype(np.float32),
+            "aoi": np.clip(np.asarray(aoi) / self._max_age, 0, 1).astype(np.float32),
+            "q": np.clip(dist / self._diagonal, 0, 1).astype(np.float32),
+            "slot": np.array([self.t / inst.horizon], dtype=np.float32),
+        }
+        if self.observe_sensors:
+            pos = np.array([s.position for s in inst.sensors])
+            obs["sensors"] = (pos / [inst.width, inst.height]).astype(np.float32)
+            obs["rho"] = np.array([s.rho for s in inst.sensors], dtype=np.float32)
+        return obs
+
+    def _info(self) -> dict[str, Any]:
+        return {"action_mask": self.action_masks(), "slot": self.t, "idle_slots": getattr(self, "_idle", 0),
+                "instance": self.instance.name}
+
+    # ------------------------------------------------------------------ rendering
 
     def render(self):
         if self.render_mode == "ansi":
@@ -115,17 +223,21 @@ class VoIEnv(gym.Env):
         return None
 
     def _ansi(self) -> str:
-        lat, p = self.lattice, self.state[0]
-        rows = []
-        for l in reversed(range(lat.ny)):
-            cells = []
-            for k in range(lat.nx):
-                q = k * lat.ny + l
-                near = np.flatnonzero(lat.in_range[:, q])
-                cells.append("R" if q == p else (str(near[0] % 10) if len(near) else "."))
-            rows.append(" ".join(cells))
+        """The lattice, top row first: R the robot, # blocked, D the end (dock), i the nearest
+        point of sensor i (mod 10), . a free point; then each sensor's position, rho and AoI."""
+        lat, inst, p = self.lattice, self.instance, self.state[0]
+        cells = np.full(lat.n_points, ".", dtype=object)
+        cells[lat.blocked] = "#"
+        if lat.end >= 0:
+            cells[lat.end] = "D"
+        for i in range(inst.n_sensors):
+            cells[int(np.argmin(lat.distance[i]))] = str(i % 10)
+        cells[p] = "R"
+        rows = [" ".join(cells[k * lat.ny + l] for k in range(lat.nx)) for l in reversed(range(lat.ny))]
         _, aoi, *_ = self.state
-        rows.append(f"slot {self.t}/{self.instance.horizon}  AoI {list(aoi)}")
+        rows.append(f"slot {self.t}/{inst.horizon}")
+        rows += [f"sensor {i} at ({s.position[0]:g}, {s.position[1]:g}) rho {s.rho:.2f} AoI {a}"
+                 for i, (s, a) in enumerate(zip(inst.sensors, aoi, strict=True))]
         return "\n".join(rows) + "\n"
 
     def _rgb(self) -> np.ndarray:
@@ -137,6 +249,10 @@ class VoIEnv(gym.Env):
             color = (230, 230, 230)
             if lat.in_range[:, q].any():
                 color = (170, 200, 255)
+            if lat.blocked[q]:
+                color = (80, 80, 80)
+            if q == lat.end:
+                color = (60, 170, 60)
             if q == p:
                 color = (220, 40, 40)
             img[y0 + 2: y0 + CELL - 2, x0 + 2: x0 + CELL - 2] = color

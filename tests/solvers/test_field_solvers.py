@@ -123,19 +123,14 @@ def test_env_masks_and_rollouts_are_legal():
 
     rng = random.Random(1)
     for inst in CASES:
-        env = gym.make(voiopt.env.ENV_ID, instance=inst).unwrapped
+        env = gym.make(voiopt.env.ENV_ID, instance=inst, infeasible="penalise").unwrapped
         for masked_only in (True, False):
             env.reset(seed=0)
-            positions, schedule = [], []
             for _t in range(inst.horizon):
-                mask = env.action_mask()
+                mask = env.action_masks()
                 assert mask.any()
                 choices = np.flatnonzero(mask) if masked_only else np.arange(len(mask))
                 a = int(rng.choice(choices.tolist()))
-                p = env.state[0]
                 _, _, _, _, info = env.step(a)
-                assert info["feasible"] == bool(mask[a])
-                positions.append(p)
-            schedule = [None] * inst.horizon
-            plan = Plan.from_indices(inst, positions, [-1] * inst.horizon)
-            oracle.simulate(inst.to_dict(), {**plan.to_dict(), "schedule": schedule})
+                assert info["infeasible"] == (not mask[a])
+            oracle.simulate(inst.to_dict(), env.plan().to_dict())  # every rollout is a legal plan
