@@ -22,7 +22,7 @@ LAYERS = [
     ("voiopt.models",),
     ("voiopt.solvers",),
     ("voiopt.env", "voiopt.plots", "voiopt.experiments"),
-    ("voiopt.cli", "voiopt.__main__", "voiopt"),
+    ("voiopt.cli", "voiopt.cli_bench", "voiopt.__main__", "voiopt"),
 ]
 
 

@@ -15,6 +15,7 @@ import voiopt
 from voiopt import fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file
+from voiopt.cli_bench import add_commands as add_bench_commands
 from voiopt.errors import OptionError, VoioptError
 from voiopt.experiments.runner import WorkerDied
 from voiopt.generate import PRESETS, generate_set, write_set
@@ -168,7 +169,7 @@ def cmd_export(args) -> int:
 
     check_output_file(args.model, "MODEL")
     inst = instance_mod.load(args.instance)
-    export(inst, args.objective, args.model)
+    export(inst, args.objective, args.model, covering_level=args.covering_level)
     out.print(f"wrote {args.model}", markup=False)
     return 0
 
@@ -313,6 +314,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("instance", metavar="INSTANCE")
     s.add_argument("model", metavar="MODEL", help="output file, .mps or .lp")
     s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES))
+    s.add_argument("--covering-level", type=int, default=None, metavar="K",
+                   help="min-voi, max-aoi: write the bisection's covering problem for the K-th smallest candidate "
+                        "worth instead (0-based)")
 
     s = _command(sub, "gap-report", "proven optimality gaps of several methods over many networks", cmd_gap_report)
     s.add_argument("instances", nargs="+", metavar="INSTANCES", help="instance files or folders of them")
@@ -341,6 +345,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = _command(sub, "demo", "run the main job on the shipped case study", cmd_demo)
     s.add_argument("instance", nargs="?", default=None, metavar="INSTANCE")
+
+    add_bench_commands(sub, _command, _add_executor_options)
     return p
 
 

@@ -157,7 +157,7 @@ class _Run:
         import highspy
 
         t = time.perf_counter()
-        h = _new_highs(self.verbose)
+        h = model_mod.new_highs(self.verbose)
         # verbose: HiGHS's log of the one big MILP, on stderr (stdout stays for results)
         log = self.verbose and model.aggregate != "covering"
         h.setOptionValue("output_flag", log)
@@ -353,26 +353,6 @@ class _Run:
 WATCH_S = 0.05  # how often the stop rule is checked while HiGHS runs
 HIGHS_GRACE_S = 1.0  # how long HiGHS may take to honour a stop request
 _NO_INFO = SimpleNamespace(mip_dual_bound=math.inf, mip_gap=math.inf, primal_solution_status=0, mip_node_count=0)
-
-
-def _new_highs(verbose: bool):
-    """A Highs object; HiGHS prints its banner on stdout when the first one is made, whatever
-    its options, so unless ``verbose`` that one construction writes to /dev/null."""
-    import os
-
-    import highspy
-
-    if verbose:
-        return highspy.Highs()
-    sys.stdout.flush()
-    saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 1)
-        return highspy.Highs()
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(devnull)
 
 
 def _abs_slack(model: model_mod.Model) -> float:

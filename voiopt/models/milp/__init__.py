@@ -15,10 +15,10 @@ from voiopt.models.milp.formulation import (
     default_scale,
     level_terms,
 )
-from voiopt.models.milp.model import Model
+from voiopt.models.milp.model import Model, new_highs
 from voiopt.models.uploads import SCORE_RTOL, Structure, structure
 
 __all__ = [
     "EXPORT_FORMATS", "SCORE_RTOL", "LevelTerms", "Model", "Structure", "build", "build_covering",
-    "default_scale", "export", "level_terms", "structure",
+    "default_scale", "export", "level_terms", "new_highs", "structure",
 ]

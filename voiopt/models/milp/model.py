@@ -3,6 +3,8 @@ column and row names and the map from a plan to a full column vector."""
 
 from __future__ import annotations
 
+import os
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -215,3 +217,21 @@ class _Triplets:
         m.sum_duplicates()
         m.sort_indices()
         return m
+
+
+def new_highs(verbose: bool = False):
+    """A Highs object; HiGHS prints its banner on stdout when the first one is made, whatever
+    its options, so unless ``verbose`` that one construction writes to /dev/null."""
+    import highspy
+
+    if verbose:
+        return highspy.Highs()
+    sys.stdout.flush()
+    saved, devnull = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        return highspy.Highs()
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)

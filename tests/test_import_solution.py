@@ -1,0 +1,81 @@
+"""An external MILP solver's solution read back into a plan: the MPS round trip, the .sol
+form, the covering problems, and one-line errors."""
+
+from __future__ import annotations
+
+import highspy
+import pytest
+from conftest import ROOT
+from test_cli import one_line_error, run
+
+import voiopt
+from voiopt.models.milp import export
+from voiopt.models.milp.export import covering_levels
+from voiopt.models.milp.solution_file import import_solution
+
+DOCK = ROOT / "instances" / "dock.json"
+
+
+def _solve_file(model, solution):
+    h = highspy.Highs()
+    h.silent()
+    h.setOptionValue("mip_rel_gap", 0.0)
+    assert h.readModel(str(model)) == highspy.HighsStatus.kOk
+    h.run()
+    h.writeSolution(str(solution), 0)
+    return h
+
+
+@pytest.mark.parametrize("name, objective", [("case-study", "mean-min-voi"), ("case-study", "max-aoi"),
+                                             ("dock", "mean-min-voi"), ("dock", "min-voi")])
+def test_mps_round_trip_gives_the_optimum(tmp_path, name, objective):
+    inst = voiopt.load(ROOT / "instances" / f"{name}.json")
+    model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
+    export(inst, objective, model)
+    _solve_file(model, solution)
+    got = import_solution(inst, objective, model, solution)
+    best = voiopt.solve(inst, "dp", objective)
+    assert best.status == "optimal"
+    assert got.value == pytest.approx(best.value, rel=1e-6)
+    # the same solution as SCIP writes it: only the non-zero columns, "name value (obj:c)"
+    lines = [ln.split() for ln in solution.read_text().splitlines()]
+    scip = tmp_path / "scip.sol"
+    scip.write_text("solution status: optimal solution found\nobjective value: 1\n" + "".join(
+        f"{p[0]} {p[1]} \t(obj:0)\n" for p in lines if len(p) == 2 and p[0][:2] in ("x_", "y_") and float(p[1]) > 0.5))
+    assert import_solution(inst, objective, model, scip).value == got.value
+
+
+def test_covering_problem_export_is_feasible_exactly_up_to_the_optimum(tmp_path):
+    inst = voiopt.load(DOCK)
+    best = voiopt.solve(inst, "dp", "min-voi").value
+    cand = covering_levels(inst, "min-voi")
+    k = int((cand <= best * (1 + 1e-9)).nonzero()[0].max())
+    for level, feasible in ((k, True), (k + 1, False)):
+        model = tmp_path / f"c{level}.mps"
+        export(inst, "min-voi", model, covering_level=level)
+        h = _solve_file(model, tmp_path / "c.sol")
+        status = h.getModelStatus()
+        assert (status == highspy.HighsModelStatus.kOptimal) == feasible, (level, h.modelStatusToString(status))
+        if feasible:
+            got = import_solution(inst, "min-voi", model, tmp_path / "c.sol")
+            assert got.value >= cand[level] * (1 - 1e-9)
+
+
+def test_import_solution_command_and_errors(capsys, tmp_path):
+    model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
+    assert run(capsys, "export", str(DOCK), str(model))[0] == 0
+    _solve_file(model, solution)
+    out = tmp_path / "r.json"
+    code, text, _ = run(capsys, "import-solution", str(DOCK), str(model), str(solution), "-o", str(out))
+    assert code == 0 and "dock  import  mean-min-voi: feasible" in text
+    assert voiopt.evaluate(voiopt.load(DOCK), voiopt.load_plan(out)) == voiopt.load_result(out).metrics
+    other = tmp_path / "cs.mps"
+    run(capsys, "export", str(ROOT / "instances" / "case-study.json"), str(other))
+    code, _, err = run(capsys, "import-solution", str(DOCK), str(other), str(solution), "-o", str(out))
+    assert code == 2 and "was it exported from another instance?" in one_line_error(err)
+    junk = tmp_path / "junk.sol"
+    junk.write_text("nothing here\n")
+    code, _, err = run(capsys, "import-solution", str(DOCK), str(model), str(junk), "-o", str(out))
+    assert code == 2 and "not a solution of it" in one_line_error(err)
+    code, _, err = run(capsys, "export", str(DOCK), str(model), "--covering-level", "1")
+    assert code == 2 and "covering problems exist for min-voi and max-aoi" in one_line_error(err)

@@ -1,0 +1,102 @@
+"""``voiopt bench`` (VoI-Lib: list, export, score, certify) and ``voiopt import-solution``: the
+commands for people scoring their own methods. Thin, like cli.py: parse, call, print."""
+
+from __future__ import annotations
+
+from rich.console import Console
+from rich.table import Table
+
+from voiopt import instance as instance_mod
+from voiopt._files import check_output_dir, check_output_file
+from voiopt.objectives import DEFAULT, OBJECTIVES
+
+out = Console(highlight=False, soft_wrap=True)
+wide = Console(highlight=False, width=None if out.is_terminal else 200)  # tables are not cut to 80 columns in a pipe
+
+
+def cmd_bench_list(args) -> int:
+    from voiopt.experiments import voilib
+
+    rows = voilib.table_rows()
+    t = Table(title=f"VoI-Lib {voilib.VERSION}: the optimum, or \\[lower, upper] where still open")
+    for col in ("name", "N", "T", "area", "rules", *OBJECTIVES):
+        t.add_column(col, justify="right" if col in ("N", "T") or col in OBJECTIVES else "left")
+    for r in rows:
+        t.add_row(*(str(r[c]) for c in ("name", "N", "T", "area", "rules", *OBJECTIVES)))
+    wide.print(t)
+    return 0
+
+
+def cmd_bench_export(args) -> int:
+    from voiopt.experiments import voilib
+
+    check_output_dir(args.out, "--out")
+    folder = voilib.export(args.out)
+    out.print(f"wrote {len(voilib.instances())} instances and certificates.json to {folder}", markup=False)
+    return 0
+
+
+def cmd_bench_score(args) -> int:
+    from voiopt.experiments import voilib
+
+    rows = voilib.score_files(args.results)  # a forged value or an illegal plan raises: exit 2
+    t = Table(title="gap to the VoI-Lib certificate (re-simulated)")
+    for col in ("result", "instance", "objective", "value", "certified", "gap to bound", "gap to best"):
+        t.add_column(col)
+    pct = lambda g: "-" if g is None else f"{100 * g:.4g} %"  # noqa: E731
+    for r in rows:
+        t.add_row(r["result"], r["instance"], r["objective"], f"{r['value']:.6g}", r["certified"],
+                  pct(r["gap_to_bound"]), pct(r["gap_to_best"]))
+    wide.print(t)
+    return 0
+
+
+def cmd_bench_certify(args) -> int:
+    from voiopt.experiments import voilib
+
+    path = voilib.certify(args.work, time_limit=args.time_limit, memory_limit=args.memory_limit,
+                          workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
+                          into=args.into)
+    out.print(f"wrote {path}", markup=False)
+    return 0
+
+
+def cmd_import_solution(args) -> int:
+    from voiopt.models.milp.solution_file import import_solution
+
+    check_output_file(args.output)
+    inst = instance_mod.load(args.instance)
+    result = import_solution(inst, args.objective, args.model, args.solution)
+    result.save(args.output)
+    out.print(result.summary(), markup=False)
+    out.print(f"result written to {args.output}", markup=False)
+    return 0
+
+
+def add_commands(sub, command, add_executor_options) -> None:
+    """The parsers of ``bench`` and ``import-solution``."""
+    b = command(sub, "bench", "VoI-Lib: certified instances to score any method against", None)
+    bench = b.add_subparsers(dest="bench_command", metavar="ACTION", required=True)
+    command(bench, "list", "the instances, their sizes and certified values", cmd_bench_list)
+    s = command(bench, "export", "write the instances and certificates.json to a folder", cmd_bench_export)
+    s.add_argument("--out", required=True, metavar="DIR")
+    s = command(bench, "score", "re-simulate results and print their gaps to the certificates", cmd_bench_score)
+    s.add_argument("results", nargs="+", metavar="RESULT",
+                   help="result JSON files with instance (or instance_sha256), objective, plan and value")
+    s = command(bench, "certify", "rebuild certificates.json with dp and the MILP (resumable)", cmd_bench_certify)
+    s.add_argument("--work", required=True, metavar="DIR", help="where each run's result is kept, for resuming")
+    s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="per run (default 60)")
+    s.add_argument("--into", default=None, metavar="DIR",
+                   help="where certificates.json goes (default: the package's VoI-Lib folder)")
+    add_executor_options(s)
+    s.add_argument("--quiet", action="store_true")
+
+    s = command(sub, "import-solution", "read a MILP solver's solution back into a plan and a result",
+                cmd_import_solution)
+    s.add_argument("instance", metavar="INSTANCE")
+    s.add_argument("model", metavar="MODEL", help="the .mps or .lp that voiopt export wrote")
+    s.add_argument("solution", metavar="SOLUTION",
+                   help="HiGHS's solution file, or a 'name value' .sol file (SCIP, Gurobi, CPLEX)")
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES),
+                   help="the objective the model was exported for (default mean-min-voi)")
+    s.add_argument("-o", "--output", required=True, metavar="RESULT")

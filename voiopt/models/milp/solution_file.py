@@ -1,0 +1,94 @@
+"""Read an external MILP solver's solution back into a plan (``voiopt import-solution``).
+
+The solution is matched to the exported model by column name (docs/milp.md): only the x and y
+columns matter, ``x_t<slot>_p<point>`` and ``y_i<sensor>_t<slot>_p<point>``. Two file forms
+are read: HiGHS's solution file (``writeSolution``, or ``--solution_file``) and the common
+``name value`` lines of a .sol file from SCIP, Gurobi or CPLEX; other lines (headers, comments,
+objective values, rows) are skipped, and a column a file leaves out is 0. The plan is then
+simulated like any other: the file's own objective value is never used.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from voiopt import objectives
+from voiopt._files import MAX_JSON_BYTES
+from voiopt.errors import OptionError
+from voiopt.instance import Instance
+from voiopt.models.milp.model import new_highs
+from voiopt.models.milp.solution import plan_from_columns
+from voiopt.models.uploads import Structure, structure
+from voiopt.plan import Plan
+from voiopt.result import Result
+
+
+def path_names(st: Structure) -> dict[str, int]:
+    """Column of every x and y name of the instance's model."""
+    names = {}
+    for t, p in zip(*np.nonzero(st.x_col >= 0), strict=True):
+        names[f"x_t{t}_p{p}"] = int(st.x_col[t, p])
+    for u in range(st.n_uploads):
+        names[f"y_i{st.up_sensor[u]}_t{st.up_slot[u]}_p{st.up_point[u]}"] = int(st.up_col[u])
+    return names
+
+
+def model_names(model: str | os.PathLike) -> set[str]:
+    """The column names of an MPS or LP file (read by HiGHS)."""
+    import highspy
+
+    h = new_highs()
+    h.silent()
+    if not Path(model).is_file():
+        raise OptionError(f"MODEL: {model}: no such file")
+    if h.readModel(str(model)) == highspy.HighsStatus.kError:
+        raise OptionError(f"MODEL: HiGHS cannot read {str(model)!r} as MPS or LP")
+    return set(h.getLp().col_names_)
+
+
+def read_values(solution: str | os.PathLike, names: dict[str, int]) -> dict[str, float]:
+    """``name value`` pairs of the known columns in a solution file."""
+    p = Path(solution)
+    if not p.is_file():
+        raise OptionError(f"SOLUTION: {solution}: no such file")
+    if p.stat().st_size > 8 * MAX_JSON_BYTES:
+        raise OptionError(f"SOLUTION: {solution}: larger than {8 * MAX_JSON_BYTES} bytes")
+    values = {}
+    with open(p, encoding="utf-8", errors="replace") as f:
+        for line in f:
+            parts = line.split()
+            if len(parts) >= 2 and parts[0] in names:
+                try:
+                    v = float(parts[1])
+                except ValueError:
+                    continue
+                if not np.isfinite(v):
+                    raise OptionError(f"SOLUTION: {parts[0]}: must be a finite number, got {parts[1][:40]!r}")
+                values[parts[0]] = v
+    return values
+
+
+def import_solution(instance: Instance, objective: str, model: str | os.PathLike,
+                    solution: str | os.PathLike) -> Result:
+    """A result (method "import") from the solution of the model ``voiopt export`` wrote."""
+    objectives.check_objective(objective)
+    st = structure(instance, objectives.get(objective).worth)
+    names = path_names(st)
+    in_model = model_names(model)
+    missing = sorted(set(names) - in_model)
+    if missing:
+        raise OptionError(f"MODEL: its columns are not those voiopt exports for {instance.name} (no {missing[0]}): "
+                          "was it exported from another instance?")
+    values = read_values(solution, names)
+    if not any(k.startswith("x_") for k in values):
+        raise OptionError(f"SOLUTION: {solution}: no x_t<slot>_p<point> column of the model: not a solution of it")
+    col = np.zeros(st.n_base)
+    for k, v in values.items():
+        col[names[k]] = v
+    idx, sched = plan_from_columns(st, col)
+    plan = Plan.from_indices(instance, idx, sched)
+    return Result.from_plan(instance, "import", objective, plan, status="feasible", runtime_s=0.0,
+                            solver={"model": str(model), "solution": str(solution), "columns_read": len(values)})
