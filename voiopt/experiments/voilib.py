@@ -1,0 +1,276 @@
+"""VoI-Lib: frozen, versioned benchmark instances with certificates, and scoring against them.
+
+The instances ship as package data (``voiopt/data/voilib/instances``) and never change within
+a version. ``certificates.json`` holds, per instance and objective, the best plan known, its
+simulated value, a proven bound, the status ("optimal" when they meet, else "bounded": the
+optimum lies between value and bound), the methods that found the plan and proved the bound,
+the voiopt version and the instance's sha256. dp and the MILP certify every entry
+independently; where both prove optimality their values must agree, or certification fails.
+``certify`` is the only writer of the certificates (docs/voilib.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from voiopt import instance as instance_mod
+from voiopt._files import loads_json, read_json, safe_name, write_json_atomic
+from voiopt.errors import OptionError, VoioptError
+from voiopt.generate import case_study, generate_set, write_set
+from voiopt.instance import Instance
+from voiopt.objectives import OBJECTIVES, best, check_objective, gap, tightest
+from voiopt.plan import Plan
+from voiopt.result import OPTIMAL_RTOL, Result
+from voiopt.simulate import simulate
+
+VERSION = "1"  # a certificate changes only with a new version of the library
+DATA = resources.files("voiopt") / "data" / "voilib"
+CERTIFYING_METHODS = ("dp", "milp")
+VALUE_RTOL = 1e-9  # a submitted value and its re-simulation may differ by rounding only
+
+# The ladder of version 1: (group, count, what generates it). Names are group-k.
+LADDER: list[tuple[str, int, dict[str, Any]]] = [
+    ("paper-n3-t10", 2, dict(n_sensors=3, horizon=10)),
+    ("paper-n4-t20", 2, dict(n_sensors=4, horizon=20)),
+    ("paper-n4-t30", 4, dict(n_sensors=4, horizon=30)),
+    ("paper-n5-t30", 2, dict(n_sensors=5, horizon=30)),
+    ("paper-n6-t30", 2, dict(n_sensors=6, horizon=30)),
+    ("paper-n8-t30", 2, dict(n_sensors=8, horizon=30)),
+    ("long-n4-t50", 2, dict(n_sensors=4, horizon=50, width=10.0, height=10.0)),
+    ("long-n4-t100", 2, dict(n_sensors=4, horizon=100, width=10.0, height=10.0)),
+    ("grid15-n5-t40", 2, dict(n_sensors=5, horizon=40, width=15.0, height=15.0)),
+    ("walls-n4-t30", 3, dict(n_sensors=4, horizon=30, blocked_fraction=0.2, end="start", max_moves=20)),
+    ("factory-n4-t30", 2, dict(preset="factory", n_sensors=4, horizon=30, max_moves=24)),
+    ("factory-n6-t60", 2, dict(preset="factory", n_sensors=6, horizon=60, max_moves=48)),
+    ("factory-n12-t100", 2, dict(preset="factory", n_sensors=12, horizon=100, max_moves=80)),
+]
+LADDER_SEED = 2027
+
+
+def _version() -> str:
+    """The installed voiopt's version (the package metadata, as pip sees it)."""
+    from importlib.metadata import version
+
+    return version("voiopt")
+
+
+def ladder() -> list[Instance]:
+    """The instances of this version, drawn afresh (the frozen files are these, and
+    tests/test_voilib.py checks it): the case study, then each group of LADDER."""
+    out = [case_study()]
+    for k, (group, count, spec) in enumerate(LADDER):
+        spec = dict(spec)
+        if spec.pop("preset", None) == "factory":
+            nets = generate_set(count, seed=LADDER_SEED + k, preset="factory", name=group, **spec)
+        else:
+            nets = generate_set(count, seed=LADDER_SEED + k, name=group, **spec)
+        out += nets
+    return out
+
+
+def instance_hash(inst: Instance) -> str:
+    """sha256 of the instance's canonical JSON (sorted keys, no spaces): its identity."""
+    text = json.dumps(inst.to_dict(), sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def instances() -> dict[str, Instance]:
+    """The frozen instances, by name, in file order."""
+    folder = DATA / "instances"
+    out = {}
+    for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+        if entry.name.endswith(".json"):
+            inst = instance_mod.from_dict(loads_json(entry.read_text("utf-8")), source=entry.name)
+            out[inst.name] = inst
+    return out
+
+
+def certificates() -> dict[str, Any]:
+    """The shipped certificates.json ({} entries if none have been made)."""
+    entry = DATA / "certificates.json"
+    if not entry.is_file():
+        return {"version": VERSION, "instances": {}}
+    return loads_json(entry.read_text("utf-8"))
+
+
+def certified(inst: Instance, objective: str) -> float | None:
+    """The proven optimum of a VoI-Lib instance (matched by hash), or None if the instance is
+    not in the library or its certificate is still an interval."""
+    digest = instance_hash(inst)
+    for entry in certificates()["instances"].values():
+        if entry["sha256"] == digest:
+            cert = entry["certificates"].get(objective)
+            return cert["value"] if cert is not None and cert["status"] == "optimal" else None
+    return None
+
+
+def freeze(out_dir: str | os.PathLike) -> list[Path]:
+    """Write the ladder's instances to ``out_dir`` (a maintainer's step for a new version)."""
+    return write_set(ladder(), out_dir)
+
+
+# ------------------------------------------------------------------------- the table
+
+
+def describe(inst: Instance) -> dict[str, Any]:
+    """Sizes and rules of an instance, for the table."""
+    rules = [r for r, on in (("blocked", inst.blocked), ("end", inst.end is not None),
+                             ("max_moves", inst.max_moves is not None)) if on]
+    return {"name": inst.name, "N": inst.n_sensors, "T": inst.horizon,
+            "area": f"{inst.width:g}x{inst.height:g}", "rules": ",".join(rules) or "-"}
+
+
+def show_certificate(cert: dict[str, Any] | None) -> str:
+    """A certificate as the table shows it: the optimum, or [value, bound] when open."""
+    if cert is None:
+        return "-"
+    if cert["status"] == "optimal":
+        return f"{cert['value']:.6g}"
+    lo, hi = sorted((cert["value"], cert["bound"]))
+    return f"[{lo:.6g}, {hi:.6g}]"
+
+
+def table_rows() -> list[dict[str, Any]]:
+    certs = certificates()["instances"]
+    rows = []
+    for name, inst in instances().items():
+        row = describe(inst)
+        entry = certs.get(name, {}).get("certificates", {})
+        for objective in OBJECTIVES:
+            row[objective] = show_certificate(entry.get(objective))
+        rows.append(row)
+    return rows
+
+
+def export(out_dir: str | os.PathLike) -> Path:
+    """The instances and certificates.json into ``out_dir`` (created)."""
+    out = Path(out_dir)
+    write_set(list(instances().values()), out)
+    write_json_atomic(out / "certificates.json", certificates())
+    return out
+
+
+# ------------------------------------------------------------------------- scoring
+
+
+def find_instance(result: dict[str, Any]) -> tuple[str, Instance]:
+    """The VoI-Lib instance a result names, by ``instance_sha256`` if given, else by name."""
+    lib = instances()
+    digest = result.get("instance_sha256")
+    if digest is not None:
+        for name, inst in lib.items():
+            if instance_hash(inst) == digest:
+                return name, inst
+        raise OptionError(f"instance_sha256: {str(digest)[:70]!r} is no VoI-Lib {VERSION} instance")
+    name = result.get("instance")
+    if name not in lib:
+        raise OptionError(f"instance: {str(name)[:70]!r} is no VoI-Lib {VERSION} instance (see voiopt bench list)")
+    return name, lib[name]
+
+
+def score(result: dict[str, Any], source: str = "RESULT") -> dict[str, Any]:
+    """Re-simulate a submitted result (``instance``, ``objective``, ``plan``, optional
+    ``value``) against its VoI-Lib instance; its gap to the certificate. A stated value its
+    plan does not give, or an illegal plan, raises with one line."""
+    if not isinstance(result, dict):
+        raise OptionError(f"{source}: must be a result object with instance, objective and plan")
+    name, inst = find_instance(result)
+    objective = result.get("objective")
+    if objective not in OBJECTIVES:
+        raise OptionError(f"{source}: objective: must be one of {', '.join(OBJECTIVES)}, got {str(objective)[:40]!r}")
+    if "plan" not in result:
+        raise OptionError(f"{source}: plan: is required")
+    value = simulate(inst, Plan.from_dict(result["plan"])).metrics[objective]
+    stated = result.get("value")
+    if stated is not None:
+        if isinstance(stated, bool) or not isinstance(stated, (int, float)) or not (
+                abs(stated - value) <= VALUE_RTOL * max(abs(stated), abs(value), 1e-300)):
+            raise OptionError(f"{source}: value: {stated!r} is not what its plan gives ({value!r} by the simulator): "
+                              "rejected")
+    cert = certificates()["instances"].get(name, {}).get("certificates", {}).get(objective)
+    row = {"result": source, "instance": name, "objective": objective, "value": value,
+           "certified": show_certificate(cert), "gap_to_bound": None, "gap_to_best": None}
+    if cert is not None:
+        row["gap_to_bound"] = gap(value, cert["bound"])
+        row["gap_to_best"] = gap(value, cert["value"])
+    return row
+
+
+def score_files(paths: list[str]) -> list[dict[str, Any]]:
+    return [score(read_json(p), str(p)) for p in paths]
+
+
+# ------------------------------------------------------------------------- certification
+
+
+def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dict[str, Any]:
+    """One certificate from the certifying runs of an instance and objective: the best
+    simulated plan and the tightest proven bound. Two proofs of optimality must agree."""
+    check_objective(objective)
+    proved = [r for r in results if r.status == "optimal"]
+    for a in proved:
+        for b in proved:
+            if gap(a.value, b.value) > OPTIMAL_RTOL:
+                raise VoioptError(f"certify: {inst.name} {objective}: {a.method} proves {a.value!r} and {b.method} "
+                                  f"proves {b.value!r}: the exact methods disagree")
+    with_plan = [r for r in results if r.plan is not None and r.value is not None]
+    if not with_plan:
+        raise VoioptError(f"certify: {inst.name} {objective}: no method returned a plan")
+    value = best(objective, [r.value for r in with_plan])
+    top = next(r for r in with_plan if r.value == value)
+    bounds = [r.bound for r in results if r.bound is not None]
+    if proved:
+        bound, bound_method = value, proved[0].method  # the plan's own value is the tightest proof
+    elif bounds:
+        bound = tightest(objective, bounds)
+        bound_method = next(r.method for r in results if r.bound == bound)
+    else:
+        bound, bound_method = None, None
+    status = "optimal" if bound is not None and gap(value, bound) <= OPTIMAL_RTOL else "bounded"
+    return {
+        "objective": objective, "status": status, "value": value, "bound": bound, "gap": gap(value, bound),
+        "plan": top.plan.to_dict(), "method": top.method, "bound_method": bound_method,
+        "checks": {r.method: {"status": r.status, "value": r.value, "bound": r.bound, "runtime_s": r.runtime_s}
+                   for r in results},
+        "voiopt_version": _version(), "instance_sha256": instance_hash(inst),
+    }
+
+
+def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_limit: float | None = None,
+            workers: int = 1, dask_scheduler: str | None = None, progress: bool = False,
+            into: str | os.PathLike | None = None) -> Path:
+    """Run dp and the MILP on every instance and objective (results kept in ``work_dir``, so
+    an interrupted run resumes, on a process pool or Dask) and write certificates.json into
+    ``into`` (default: the package's VoI-Lib folder, in a source checkout)."""
+    from voiopt.experiments.runner import method_tasks, run_tasks
+    from voiopt.result import load_result
+
+    work = Path(work_dir)
+    work.mkdir(parents=True, exist_ok=True)
+    lib = instances()
+    tasks, plan = [], []
+    for name, inst in lib.items():
+        for objective in OBJECTIVES:
+            ts = method_tasks(inst, f"voilib:{name}", CERTIFYING_METHODS, objective, work, group=name,
+                              time_limit=time_limit, memory_limit=memory_limit)
+            ts = [dataclasses.replace(t, out_path=str(work / f"{safe_name(name)}__{objective}__{t.method}.json"))
+                  for t in ts]  # one file per (instance, objective, method)
+            tasks += ts
+            plan.append((name, objective, ts))
+    run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress,
+              description="certifying VoI-Lib")
+    out = {"version": VERSION, "voiopt_version": _version(), "instances": {}}
+    for name, objective, ts in plan:
+        entry = out["instances"].setdefault(name, {"sha256": instance_hash(lib[name]), "certificates": {}})
+        results = [load_result(t.out_path) for t in ts]
+        entry["certificates"][objective] = certificate_of(lib[name], objective, results)
+    target = Path(into) if into is not None else Path(str(DATA))
+    path = target / "certificates.json"
+    write_json_atomic(path, out)
+    return path
