@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 
 import pytest
 
@@ -117,6 +118,27 @@ def test_dask_local_cluster_matches_process_pool(tmp_path, nets):
     report.gap_report([nets], methods, "mean-min-voi", tmp_path / "dask", workers=1, dask_scheduler="local")
     assert _comparable(tmp_path / "pool" / "gaps.csv") == _comparable(tmp_path / "dask" / "gaps.csv")
     assert _plans(tmp_path / "pool") == _plans(tmp_path / "dask")
+
+
+def test_dask_workers_elsewhere_and_a_relative_output_write_on_the_client(tmp_path, nets, monkeypatch):
+    """Workers run in another working directory (as on a cluster without a shared filesystem);
+    a relative -o must be written by the client, in the client's directory, and nowhere else."""
+    from distributed import Client, LocalCluster
+
+    client_dir, worker_dir = tmp_path / "client", tmp_path / "worker"
+    client_dir.mkdir()
+    worker_dir.mkdir()
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        client.run(os.chdir, str(worker_dir))
+        assert set(client.run(os.getcwd).values()) == {str(worker_dir)}
+        monkeypatch.chdir(client_dir)
+        code = main(["gap-report", str(nets), "--methods", "dp,greedy", "--dask-scheduler", cluster.scheduler_address,
+                     "--memory-limit", "2", "-o", "rel-out", "--quiet"])
+    assert code == 0
+    assert (client_dir / "rel-out" / "gaps.csv").is_file()
+    assert len(list((client_dir / "rel-out" / "results").glob("*.json"))) == 3 * 2
+    assert list(worker_dir.rglob("*")) == []  # nothing written on the worker's side
 
 
 @pytest.mark.parametrize(

@@ -18,6 +18,12 @@ def cmd_bench_list(args) -> int:
     from voiopt.experiments import voilib
 
     rows = voilib.table_rows()
+    cols = ("name", "N", "T", "area", "rules", *OBJECTIVES)
+    if args.markdown:
+        lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+        lines += ["| " + " | ".join(str(r[c]) for c in cols) + " |" for r in rows]
+        print("\n".join(lines))
+        return 0
     t = Table(title=f"VoI-Lib {voilib.VERSION}: the optimum, or \\[lower, upper] where still open")
     for col in ("name", "N", "T", "area", "rules", *OBJECTIVES):
         t.add_column(col, justify="right" if col in ("N", "T") or col in OBJECTIVES else "left")
@@ -56,7 +62,7 @@ def cmd_bench_certify(args) -> int:
 
     path = voilib.certify(args.work, time_limit=args.time_limit, memory_limit=args.memory_limit,
                           workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
-                          into=args.into)
+                          into=args.into, only=None if args.only is None else args.only.split(","))
     out.print(f"wrote {path}", markup=False)
     return 0
 
@@ -77,7 +83,8 @@ def add_commands(sub, command, add_executor_options) -> None:
     """The parsers of ``bench`` and ``import-solution``."""
     b = command(sub, "bench", "VoI-Lib: certified instances to score any method against", None)
     bench = b.add_subparsers(dest="bench_command", metavar="ACTION", required=True)
-    command(bench, "list", "the instances, their sizes and certified values", cmd_bench_list)
+    s = command(bench, "list", "the instances, their sizes and certified values", cmd_bench_list)
+    s.add_argument("--markdown", action="store_true", help="print a Markdown table")
     s = command(bench, "export", "write the instances and certificates.json to a folder", cmd_bench_export)
     s.add_argument("--out", required=True, metavar="DIR")
     s = command(bench, "score", "re-simulate results and print their gaps to the certificates", cmd_bench_score)
@@ -88,6 +95,7 @@ def add_commands(sub, command, add_executor_options) -> None:
     s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="per run (default 60)")
     s.add_argument("--into", default=None, metavar="DIR",
                    help="where certificates.json goes (default: the package's VoI-Lib folder)")
+    s.add_argument("--only", default=None, metavar="NAME,...", help="certify these instances alone")
     add_executor_options(s)
     s.add_argument("--quiet", action="store_true")
 

@@ -54,6 +54,7 @@ CELL = 24  # pixels per lattice point in rgb_array renders
 SAMPLE = dict(n_sensors=4, horizon=30, width=5.0, height=5.0)  # the paper's setting, for sampled networks
 REWARD_MODES = ("paper", "normalised")
 INFEASIBLE = ("raise", "penalise")
+_OPTIMA: dict[Instance, float] = {}  # the normalising optimum of each instance met in this process
 
 
 class VoIEnv(gym.Env):
@@ -104,13 +105,15 @@ class VoIEnv(gym.Env):
         self._schedule: list[int] = []
 
     def optimum(self) -> float:
-        """The certified mean-min-voi optimum that normalises the reward (cached)."""
+        """The certified mean-min-voi optimum that normalises the reward (once per instance)."""
         if self._optimum is None:
             from voiopt.experiments import voilib
             from voiopt.solvers import dp
 
-            cert = voilib.certified(self.instance, "mean-min-voi")
-            self._optimum = cert if cert is not None else dp.solve(self.instance, "mean-min-voi").value
+            if self.instance not in _OPTIMA:
+                cert = voilib.certified(self.instance, "mean-min-voi")
+                _OPTIMA[self.instance] = cert if cert is not None else dp.solve(self.instance, "mean-min-voi").value
+            self._optimum = _OPTIMA[self.instance]
         return self._optimum
 
     # ------------------------------------------------------------------ gymnasium API

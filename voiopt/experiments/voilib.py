@@ -91,12 +91,20 @@ def instances() -> dict[str, Instance]:
     return out
 
 
+_CACHE: dict[str, Any] = {}
+
+
 def certificates() -> dict[str, Any]:
-    """The shipped certificates.json ({} entries if none have been made)."""
+    """The shipped certificates.json ({} entries if none have been made); read once per
+    version of the file (an env asks at every episode)."""
     entry = DATA / "certificates.json"
     if not entry.is_file():
         return {"version": VERSION, "instances": {}}
-    return loads_json(entry.read_text("utf-8"))
+    text = entry.read_text("utf-8")
+    key = hashlib.sha256(text.encode("utf-8")).hexdigest()
+    if _CACHE.get("key") != key:
+        _CACHE.update(key=key, data=loads_json(text))
+    return _CACHE["data"]
 
 
 def certified(inst: Instance, objective: str) -> float | None:
@@ -244,16 +252,22 @@ def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dic
 
 def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_limit: float | None = None,
             workers: int = 1, dask_scheduler: str | None = None, progress: bool = False,
-            into: str | os.PathLike | None = None) -> Path:
-    """Run dp and the MILP on every instance and objective (results kept in ``work_dir``, so
-    an interrupted run resumes, on a process pool or Dask) and write certificates.json into
-    ``into`` (default: the package's VoI-Lib folder, in a source checkout)."""
+            into: str | os.PathLike | None = None, only: list[str] | None = None) -> Path:
+    """Run dp and the MILP on every instance (or those named in ``only``) and objective
+    (results kept in ``work_dir``, so an interrupted run resumes, on a process pool or Dask)
+    and write certificates.json into ``into`` (default: the package's VoI-Lib folder, in a
+    source checkout)."""
     from voiopt.experiments.runner import method_tasks, run_tasks
     from voiopt.result import load_result
 
     work = Path(work_dir)
     work.mkdir(parents=True, exist_ok=True)
     lib = instances()
+    if only is not None:
+        unknown = [n for n in only if n not in lib]
+        if unknown:
+            raise OptionError(f"--only: {unknown[0]!r} is no VoI-Lib {VERSION} instance")
+        lib = {n: lib[n] for n in only}
     tasks, plan = [], []
     for name, inst in lib.items():
         for objective in OBJECTIVES:
