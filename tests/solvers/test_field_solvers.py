@@ -72,7 +72,7 @@ def test_exported_model_carries_the_fields(tmp_path, optima, objective):
         assert h.getInfo().objective_function_value == pytest.approx(optima[inst.name, objective], rel=1e-6)
 
 
-@pytest.mark.parametrize("method", ["greedy", "shortest-path", "qlearning", "aoi-qlearning"])
+@pytest.mark.parametrize("method", ["greedy", "shortest-path", "qlearning", "aoi-qlearning", "beam"])
 def test_other_methods_return_legal_plans(method):
     options = {"episodes": 3000} if "qlearning" in method else {}
     for inst in CASES:

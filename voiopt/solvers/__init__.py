@@ -25,6 +25,7 @@ METHODS: dict[str, tuple[str, str]] = {
     "aoi-qlearning": ("voiopt.solvers.qlearning", "solve_aoi"),
     "shortest-path": ("voiopt.solvers.baselines", "shortest_path"),
     "greedy": ("voiopt.solvers.baselines", "greedy"),
+    "beam": ("voiopt.solvers.beam", "solve"),
 }
 
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds

@@ -1,0 +1,40 @@
+"""The beam planner: legal plans never better than the proven optimum, exact with a wide beam on
+tiny networks, the best width kept, and the stop rule honoured."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import tiny_instances
+from oracles.bruteforce import brute_force
+
+import voiopt
+from voiopt.errors import OptionError
+from voiopt.objectives import OBJECTIVES, better
+from voiopt.solvers import beam
+
+
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+def test_beam_is_legal_and_bounded_by_the_optimum(objective):
+    for inst in tiny_instances(12, seed=3):
+        best, _ = brute_force(inst, objective)
+        r = beam.solve(inst, objective)
+        assert r.status == "feasible" and r.bound is None
+        assert not better(objective, r.value, best) or r.value == pytest.approx(best, rel=1e-9)
+        assert r.value == pytest.approx(best, rel=1e-9)  # tiny networks: a beam of 64 holds every label
+
+
+def test_widths_only_improve_and_options_are_checked():
+    inst = voiopt.generate(6, 30, seed=4)
+    r = beam.solve(inst, "mean-min-voi", max_width=32)
+    values = [p["value"] for p in r.solver["passes"]]
+    assert values == sorted(values) and [p["width"] for p in r.solver["passes"]] == [2, 4, 8, 16, 32]
+    assert r.value == values[-1]
+    with pytest.raises(OptionError, match="max_width: must be an integer >= 1"):
+        beam.solve(inst, "mean-min-voi", max_width=0)
+
+
+def test_a_time_limit_keeps_the_best_plan_so_far():
+    inst = voiopt.generate(10, 60, width=10, height=10, seed=2)
+    r = beam.solve(inst, "mean-min-voi", time_limit=0.5)
+    assert r.status == "time_limit" and r.runtime_s < 3.0
+    voiopt.evaluate(inst, r.plan)
