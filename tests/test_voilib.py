@@ -1,0 +1,143 @@
+"""VoI-Lib: the frozen instances, their certificates, and scoring a submitted result."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from oracles import model_oracle as oracle
+from test_cli import one_line_error, run
+
+import voiopt
+from voiopt.errors import OptionError, VoioptError
+from voiopt.experiments import voilib
+from voiopt.objectives import OBJECTIVES
+from voiopt.result import Result
+
+LIB = voilib.instances()
+CERTS = voilib.certificates()
+
+
+def test_the_frozen_instances_are_the_ladder():
+    """The shipped files are exactly what the ladder draws: nothing edited by hand, and a
+    change of the generator that would change them is caught here."""
+    assert len(LIB) >= 30
+    drawn = {inst.name: inst for inst in voilib.ladder()}
+    assert list(drawn) == sorted(drawn) or set(drawn) == set(LIB)
+    assert set(drawn) == set(LIB)
+    for name, inst in LIB.items():
+        assert voilib.instance_hash(drawn[name]) == voilib.instance_hash(inst), name
+        oracle.check_instance(inst.to_dict())  # the oracle admits every instance
+    rules = [voilib.describe(i)["rules"] for i in LIB.values()]
+    assert sum(r != "-" for r in rules) >= 6  # floors with obstacles, a dock and a budget
+
+
+def test_every_instance_and_objective_is_certified():
+    assert CERTS["version"] == voilib.VERSION
+    assert set(CERTS["instances"]) == set(LIB)
+    for name, entry in CERTS["instances"].items():
+        assert entry["sha256"] == voilib.instance_hash(LIB[name])
+        assert set(entry["certificates"]) == set(OBJECTIVES)
+
+
+@pytest.mark.parametrize("name", sorted(LIB))
+def test_every_certificate_resimulates_to_its_value(name):
+    inst = LIB[name]
+    for objective, cert in CERTS["instances"][name]["certificates"].items():
+        metrics = voiopt.evaluate(inst, cert["plan"])
+        assert metrics[objective] == cert["value"], (name, objective)
+        assert cert["instance_sha256"] == voilib.instance_hash(inst)
+        assert cert["status"] in ("optimal", "bounded")
+        if cert["status"] == "optimal":
+            assert cert["bound"] == cert["value"]
+            proofs = [m for m, c in cert["checks"].items() if c["status"] == "optimal"]
+            assert proofs, (name, objective)
+        else:  # the optimum lies between the plan and the bound
+            assert voiopt.objectives.better(objective, cert["bound"], cert["value"])
+        both = [c for c in cert["checks"].values() if c["status"] == "optimal"]
+        for c in both:  # two proofs agree (certify refuses otherwise)
+            assert voiopt.objectives.gap(c["value"], cert["value"]) <= 1e-6
+
+
+def test_paper_scale_certificates_are_cross_checked_by_both_methods():
+    """At the paper's scale every objective is proved, and the bottleneck objectives by both
+    dp and the MILP (the MILP's mean objectives may run into certify's time limit)."""
+    paper = [n for n in LIB if n.startswith(("paper-n3", "paper-n4", "case-study"))]
+    for name in paper:
+        for objective, cert in CERTS["instances"][name]["certificates"].items():
+            assert cert["status"] == "optimal"
+            proofs = {m for m, c in cert["checks"].items() if c["status"] == "optimal"}
+            if objective in ("min-voi", "max-aoi"):
+                assert proofs == {"dp", "milp"}, (name, objective)
+
+
+def test_certificate_of_refuses_disagreeing_proofs():
+    inst = LIB["paper-n3-t10-000"]
+    r = voiopt.solve(inst, "dp", "max-aoi")
+    forged = Result.from_dict({**r.to_dict(), "method": "milp", "value": r.value + 1, "bound": r.value + 1})
+    with pytest.raises(VoioptError, match="the exact methods disagree"):
+        voilib.certificate_of(inst, "max-aoi", [r, forged])
+
+
+def _submission(name, objective, method="greedy"):
+    r = voiopt.solve(LIB[name], method, objective)
+    return r.to_dict()
+
+
+def test_score_accepts_an_honest_result_with_its_gap():
+    sub = _submission("paper-n4-t30-000", "mean-min-voi")
+    row = voilib.score(sub)
+    cert = CERTS["instances"]["paper-n4-t30-000"]["certificates"]["mean-min-voi"]
+    assert row["value"] == sub["value"]
+    assert row["gap_to_bound"] == pytest.approx(abs(cert["bound"] - sub["value"]) / abs(cert["bound"]))
+    by_hash = {k: v for k, v in sub.items() if k != "instance"}
+    by_hash["instance_sha256"] = voilib.instance_hash(LIB["paper-n4-t30-000"])
+    assert voilib.score(by_hash)["instance"] == "paper-n4-t30-000"
+
+
+def test_score_rejects_a_forged_value():
+    sub = _submission("paper-n4-t30-000", "mean-min-voi")
+    sub["value"] *= 1.01
+    with pytest.raises(OptionError, match="is not what its plan gives"):
+        voilib.score(sub)
+
+
+def test_bench_commands(capsys, tmp_path):
+    code, out, _ = run(capsys, "bench", "list")
+    assert code == 0 and "paper-n4-t30-000" in out and "factory-n12-t100-000" in out
+    code, _, _ = run(capsys, "bench", "export", "--out", str(tmp_path / "lib"))
+    assert code == 0
+    exported = json.loads((tmp_path / "lib" / "certificates.json").read_text())
+    assert exported == CERTS and len(list((tmp_path / "lib").glob("*.json"))) == len(LIB) + 1
+    honest = tmp_path / "honest.json"
+    honest.write_text(json.dumps(_submission("walls-n4-t30-000", "max-aoi", "shortest-path")))
+    code, out, _ = run(capsys, "bench", "score", str(honest))
+    assert code == 0 and "walls-n4-t30-000" in out and "%" in out
+    forged = tmp_path / "forged.json"
+    d = _submission("walls-n4-t30-000", "max-aoi")
+    d["value"] = d["value"] - 1
+    forged.write_text(json.dumps(d))
+    code, _, err = run(capsys, "bench", "score", str(honest), str(forged))
+    assert code == 2 and "is not what its plan gives" in one_line_error(err)
+    unknown = tmp_path / "unknown.json"
+    unknown.write_text(json.dumps({**d, "instance": "nope"}))
+    code, _, err = run(capsys, "bench", "score", str(unknown))
+    assert code == 2 and "is no VoI-Lib 1 instance" in one_line_error(err)
+
+
+def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys):
+    names = ["case-study", "paper-n3-t10-000"]
+    code, _, _ = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
+                     "--only", ",".join(names), "--quiet")
+    assert code == 0
+    made = json.loads((tmp_path / "certificates.json").read_text())
+    for name in names:
+        for objective in OBJECTIVES:
+            got, shipped = made["instances"][name]["certificates"][objective], \
+                CERTS["instances"][name]["certificates"][objective]
+            assert (got["status"], got["value"]) == (shipped["status"], shipped["value"])
+    stamps = {p: p.stat().st_mtime_ns for p in (tmp_path / "work").iterdir()}
+    assert len(stamps) == len(names) * len(OBJECTIVES) * 2
+    run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path), "--only",
+        ",".join(names), "--quiet")
+    assert {p: p.stat().st_mtime_ns for p in (tmp_path / "work").iterdir()} == stamps  # resumed: nothing re-run
