@@ -126,7 +126,7 @@ def test_bench_commands(capsys, tmp_path):
 
 
 def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys):
-    names = ["case-study", "paper-n3-t10-000"]
+    names = ["paper-n3-t10-000"]
     code, _, _ = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
                      "--only", ",".join(names), "--quiet")
     assert code == 0
