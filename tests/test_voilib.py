@@ -11,6 +11,7 @@ from test_cli import one_line_error, run
 import voiopt
 from voiopt.errors import OptionError, VoioptError
 from voiopt.experiments import voilib
+from voiopt.generate import case_study_plan
 from voiopt.objectives import OBJECTIVES
 from voiopt.result import Result
 
@@ -141,3 +142,22 @@ def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys)
     run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path), "--only",
         ",".join(names), "--quiet")
     assert {p: p.stat().st_mtime_ns for p in (tmp_path / "work").iterdir()} == stamps  # resumed: nothing re-run
+
+
+@pytest.mark.parametrize("doc, message", [
+    ([1, 2], "must be a result object with instance, objective and plan"),
+    ({"instance": ["x"], "objective": "max-aoi", "plan": {}}, 'instance: ["x"] is no VoI-Lib 1 instance'),
+    ({"instance_sha256": 7, "objective": "max-aoi", "plan": {}}, "instance_sha256: 7 is no VoI-Lib 1 instance"),
+    ({"instance": "case-study", "objective": "best", "plan": {}}, "objective: must be one of"),
+    ({"instance": "case-study", "objective": "max-aoi"}, "plan: is required"),
+    ({"instance": "case-study", "objective": "max-aoi", "plan": {"positions": [], "schedule": []}},
+     "positions: must have horizon = 10 entries, got 0"),
+    ({"instance": "case-study", "objective": "max-aoi", "plan": case_study_plan().to_dict(),
+      "value": "12"}, "value: '12' is not what its plan gives"),
+])
+def test_hostile_submissions_are_one_line_errors_naming_the_file(capsys, tmp_path, doc, message):
+    path = tmp_path / "sub.json"
+    path.write_text(json.dumps(doc))
+    code, out, err = run(capsys, "bench", "score", str(path))
+    line = one_line_error(err)
+    assert code == 2 and out == "" and line.startswith(f"voiopt: error: {path}: ") and message in line, line

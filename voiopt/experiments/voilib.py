@@ -23,7 +23,7 @@ from voiopt import instance as instance_mod
 from voiopt._files import loads_json, read_json, safe_name, write_json_atomic
 from voiopt.errors import OptionError, VoioptError
 from voiopt.generate import case_study, generate_set, write_set
-from voiopt.instance import Instance
+from voiopt.instance import Instance, show
 from voiopt.objectives import OBJECTIVES, best, check_objective, gap, tightest
 from voiopt.plan import Plan
 from voiopt.result import OPTIMAL_RTOL, Result
@@ -175,10 +175,10 @@ def find_instance(result: dict[str, Any]) -> tuple[str, Instance]:
         for name, inst in lib.items():
             if instance_hash(inst) == digest:
                 return name, inst
-        raise OptionError(f"instance_sha256: {str(digest)[:70]!r} is no VoI-Lib {VERSION} instance")
+        raise OptionError(f"instance_sha256: {show(digest)} is no VoI-Lib {VERSION} instance")
     name = result.get("instance")
-    if name not in lib:
-        raise OptionError(f"instance: {str(name)[:70]!r} is no VoI-Lib {VERSION} instance (see voiopt bench list)")
+    if not isinstance(name, str) or name not in lib:
+        raise OptionError(f"instance: {show(name)} is no VoI-Lib {VERSION} instance (see voiopt bench list)")
     return name, lib[name]
 
 
@@ -211,7 +211,16 @@ def score(result: dict[str, Any], source: str = "RESULT") -> dict[str, Any]:
 
 
 def score_files(paths: list[str]) -> list[dict[str, Any]]:
-    return [score(read_json(p), str(p)) for p in paths]
+    """Score each file; an error names the file it is about."""
+    rows = []
+    for p in paths:
+        data = read_json(p)
+        try:
+            rows.append(score(data, str(p)))
+        except VoioptError as e:
+            message = str(e)
+            raise type(e)(message if message.startswith(f"{p}: ") else f"{p}: {message}") from None
+    return rows
 
 
 # ------------------------------------------------------------------------- certification
