@@ -108,11 +108,14 @@ def n_points(instance: Instance) -> int:
 
 
 def unservable_sensors(instance: Instance) -> list[int]:
-    """The sensors with no lattice point within d_th: no plan can ever schedule them.
-
-    The same test as ``build(instance).in_range[i].any()``, without building the lattice: the
+    """The sensors with no lattice point within d_th that can be stood on: no plan can ever
+    schedule them. With blocked points this asks the lattice; without, it is the same test
+    as ``build(instance).in_range[i].any()``, without building the lattice: the
     nearest lattice point is among the 3 x 3 around the rounded position (the lattice is a
     full grid), and the distances are computed exactly as ``build`` computes them."""
+    if instance.blocked:
+        lat = build(instance)
+        return np.flatnonzero(~(lat.in_range & ~lat.blocked).any(axis=1)).tolist()
     step = instance.step
     nx, ny = lattice_shape(instance.width, instance.height, step)
     pos = np.array([s.position for s in instance.sensors], dtype=float).reshape(-1, 2)

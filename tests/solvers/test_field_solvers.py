@@ -55,6 +55,37 @@ def test_exact_methods_equal_the_oracle(optima, method, options, objective):
         oracle.simulate(inst.to_dict(), r.plan.to_dict())  # legal in the oracle's eyes too
 
 
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+def test_milp_survives_a_presolve_fault_on_a_tight_budget(objective):
+    """Found by a randomised review: with max_moves equal to the fewest moves to end, HiGHS
+    1.16's presolve ended a covering problem of min-voi with a solve error (the model is
+    feasible). The MILP solves again with presolve off and proves the optimum dp proves."""
+    inst = voiopt.instance.from_dict({
+        "name": "tight", "area": {"width": 2, "height": 3}, "horizon": 7, "start": [1, 2],
+        "sensors": [{"position": [0.24, 2.57], "rho": 0.24, "initial_aoi": 2},
+                    {"position": [1.53, 1.83], "rho": 0.27, "initial_aoi": 2},
+                    {"position": [1.19, 0.67], "rho": 0.57, "initial_aoi": 4}],
+        "blocked": [[1, 1]], "end": [2, 1], "max_moves": 2})
+    r, exact = voiopt.solve(inst, "milp", objective), voiopt.solve(inst, "dp", objective)
+    assert r.status == exact.status == "optimal"
+    assert _same(r.value, exact.value)
+
+
+def test_moves_field_holds_a_move_in_the_last_slot():
+    """The moves made reach budget + 1 after a move in the last slot: the packed field holds it."""
+    for inst in CASES:
+        model = mdp_mod.build(inst)
+        if model.moves_in_state:
+            state = (*model.initial_state()[:4], model.budget + 1)
+            assert model.decode(model.encode(state)) == state
+
+
+def test_unservable_sensors_count_blocked_points():
+    d = {"area": {"width": 2, "height": 2}, "horizon": 3, "start": [0, 0], "channel": {"d_th": 0.5},
+         "sensors": [{"position": [1, 1], "rho": 0.5}, {"position": [2, 2], "rho": 0.5}], "blocked": [[1, 1]]}
+    assert voiopt.lattice.unservable_sensors(voiopt.instance.from_dict(d)) == [0]
+
+
 @pytest.mark.parametrize("objective", ["mean-min-voi", "max-aoi"])
 def test_exported_model_carries_the_fields(tmp_path, optima, objective):
     budgeted = [c for c in CASES if c.max_moves is not None and c.max_moves < c.horizon - 1][:3]

@@ -194,7 +194,8 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
     voi_reward = np.ascontiguousarray(voi)
 
     moves_in_state = lat.budget < T - 1
-    widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N + [_bits(T)] + ([_bits(lat.budget)] if moves_in_state else [])
+    # moves made reach budget + 1 after a move in the last slot (every action is feasible there)
+    widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N + [_bits(T)] + ([_bits(lat.budget + 1)] if moves_in_state else [])
     field_word, field_shift, word, used = [], [], 0, 0
     for w in widths:
         if used + w > 64:

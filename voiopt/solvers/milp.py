@@ -189,6 +189,19 @@ class _Run:
         return h
 
     def run_highs(self, h) -> tuple[Any, Any]:
+        """Run HiGHS (see _run_once); should it end with a solve error (a presolve fault: the
+        model is sound), run it once more with presolve off."""
+        import highspy
+
+        ms, info = self._run_once(h)
+        if ms == highspy.HighsModelStatus.kSolveError and not self.stop.requested:
+            self.details["presolve_off_retries"] = self.details.get("presolve_off_retries", 0) + 1
+            h.clearSolver()
+            h.setOptionValue("presolve", "off")
+            ms, info = self._run_once(h)
+        return ms, info
+
+    def _run_once(self, h) -> tuple[Any, Any]:
         """Run HiGHS in a thread while this one watches the stop rule: HiGHS's interrupt
         callbacks then see the request, and where HiGHS does not answer within HIGHS_GRACE_S
         (its presolve polls no callback) it is left behind and the incumbent returned."""

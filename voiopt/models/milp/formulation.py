@@ -14,7 +14,7 @@ Variables, created only where they can be 1:
   changes over time, so "best upload so far" is well defined and replaces "latest upload"
   exactly: a plan never gains from an upload worse than the one it holds);
 - z[t] (or a single z), the objective's per-slot minimum worth, in units of ``scale``;
-- s[p, t] in [0, 1], only with a binding ``max_moves``: the entity stays at p from slot t-1 to t.
+- s[p, t] binary, only with a binding ``max_moves``: the entity stays at p from slot t-1 to t.
 
 The field rules of MODEL.md section 9 shape the graph: x exists only where p lies on some legal
 plan (blocked points never, the last slot only at ``end``), and ``max_moves`` is one row over
@@ -88,13 +88,13 @@ def _budget_rows(st: Structure, tr: _Triplets) -> None:
 
 
 def _base_columns(st: Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Bounds and integrality of x and y (all binary; x of the start in slot 0 fixed to 1) and
-    of the stay variables (continuous in [0, 1])."""
+    """Bounds and integrality of x, y and the stay variables, all binary (x of the start in
+    slot 0 fixed to 1). The stays are integral anyway once x is; declared continuous, they
+    led HiGHS 1.16's presolve to a "Solve error" on a covering problem with a tight budget."""
     n = st.n_base
     lower, upper = np.zeros(n), np.ones(n)
     lower[st.x_col[0, lattice_mod.build(st.instance).start]] = 1.0
-    integrality = np.zeros(n, dtype=np.int8)
-    integrality[: st.n_x + st.n_uploads] = 1
+    integrality = np.ones(n, dtype=np.int8)
     return lower, upper, integrality
 
 
