@@ -247,7 +247,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             ranks, ub = new_ranks, new_ub
             labels += len(acc)
             peak_layer = max(peak_layer, len(acc))
-            bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels")
+            bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels{_progress_bound(tab, inc, ub)}")
             if len(acc) == 0:
                 return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, t + 1)
             stopped = _must_stop(stop, tab.nbytes + stored + layer_bytes, label_budget, labels)
@@ -272,6 +272,17 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
     positions[0] = tab.start
     return SearchOutcome(float(value), (positions, schedule), True, -np.inf, labels, generated, peak_layer,
                          peak_bytes, T)
+
+
+def _progress_bound(tab: Tables, inc: float, ub: np.ndarray) -> str:
+    """Incumbent, proven bound and gap for the progress bar: every completion that could beat
+    the incumbent passes through a label of the current layer, so max(incumbent, the layer's
+    largest bound) bounds the optimum now."""
+    if not np.isfinite(inc):
+        return ""
+    bound = max(inc, float(ub.max())) if len(ub) else inc
+    best, top = _external(tab, inc), _external(tab, bound)
+    return f"  best {best:.6g}  bound {top:.6g}  gap {100 * objectives.gap(best, top):.3g} %"
 
 
 WATCH_S = 0.05  # how often the stop rule is checked while a kernel runs
