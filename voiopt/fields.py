@@ -15,7 +15,7 @@ import numpy as np
 from voiopt import _grid
 from voiopt import instance as instance_mod
 from voiopt.errors import OptionError
-from voiopt.instance import LATTICE_TOL, Channel, Instance, Sensor, lattice_shape
+from voiopt.instance import LATTICE_TOL, Channel, Instance, Sensor, lattice_shape, point_index
 
 END_CHOICES = ("start", "random")
 MAX_OBSTACLE_POINTS = 10_000  # obstacles are placed one by one with a connectivity check each
@@ -51,8 +51,8 @@ def parse_end(text: str) -> str | tuple[float, float]:
 def draw(inst: Instance, rng: np.random.Generator, blocked_fraction: float, end, max_moves: int | None) -> Instance:
     """``inst`` with random obstacles, an end point and a budget (draws in that order)."""
     nx, ny = lattice_shape(inst.width, inst.height, inst.step)
-    start = _index(inst.start, inst.step, ny)
-    fixed_end = _index(end, inst.step, ny) if _is_point(end) else None
+    start = point_index(inst.start, inst.step, ny)
+    fixed_end = point_index(end, inst.step, ny) if _is_point(end) else None
     blocked = np.zeros(nx * ny, dtype=bool)
     if blocked_fraction:
         if nx * ny > MAX_OBSTACLE_POINTS:
@@ -91,10 +91,6 @@ def _connected_obstacles(nx: int, ny: int, count: int, keep: set[int], rng: np.r
             continue
         placed += 1
     return blocked
-
-
-def _index(p, step: float, ny: int) -> int:
-    return round(p[0] / step) * ny + round(p[1] / step)
 
 
 def _point(k: int, step: float, ny: int) -> tuple[float, float]:

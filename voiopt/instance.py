@@ -146,6 +146,11 @@ def on_lattice(x: float, step: float) -> bool:
     return abs(k * step - x) <= LATTICE_TOL
 
 
+def point_index(p: tuple[float, float], step: float, ny: int) -> int:
+    """The index k * ny + l of the lattice point p = (k * step, l * step) (MODEL.md section 2)."""
+    return round(p[0] / step) * ny + round(p[1] / step)
+
+
 def lattice_shape(width: float, height: float, step: float) -> tuple[float, float]:
     """(nx, ny) of MODEL.md section 2: floor(width / step) + 1 by floor(height / step) + 1.
     Exact ints when the lattice is within the cap; otherwise floats, possibly inf, computed
@@ -382,18 +387,17 @@ def _check_route(ck: _Checker, width, height, step, horizon, start, end, blocked
     from voiopt import _grid
 
     nx, ny = lattice_shape(width, height, step)
-    index = lambda p: round(p[0] / step) * ny + round(p[1] / step)  # noqa: E731
     k = np.rint(np.array(blocked, dtype=float).reshape(-1, 2) / step).astype(np.int64)
     keys = k[:, 0] * ny + k[:, 1]
     mask = np.zeros(nx * ny, dtype=bool)
     mask[keys] = True
     for name, p in (("start", start), ("end", end)):
         if p is not None:
-            for j in np.flatnonzero(keys == index(p)).tolist():
+            for j in np.flatnonzero(keys == point_index(p, step, ny)).tolist():
                 ck.fail(f"blocked[{j}]", f"{_xy(blocked[j])} is the {name} point, which must stay free")
     if ck.errors or end is None:
         return
-    moves = _grid.steps(nx, ny, mask, index(start))[index(end)]
+    moves = _grid.steps(nx, ny, mask, point_index(start, step, ny))[point_index(end, step, ny)]
     allowed = horizon - 1 if max_moves is None else min(horizon - 1, max_moves)
     why = f"horizon {horizon} allows {horizon - 1}" if allowed == horizon - 1 else f"max_moves is {max_moves}"
     around = " around the blocked points" if blocked else ""

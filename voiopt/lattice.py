@@ -13,7 +13,7 @@ from functools import cached_property
 import numpy as np
 
 from voiopt import _grid
-from voiopt.instance import LATTICE_TOL, Instance, lattice_shape
+from voiopt.instance import LATTICE_TOL, Instance, lattice_shape, point_index
 
 UNREACHABLE = _grid.UNREACHABLE  # steps_from's distance where there is no way
 MOVES = np.array([(0, 0), (0, 1), (0, -1), (1, 0), (-1, 0)], dtype=np.int64)
@@ -39,7 +39,6 @@ class Lattice:
     @property
     def n_points(self) -> int:
         return self.nx * self.ny
-
 
     def index(self, x: float, y: float) -> int | None:
         """Index of the lattice point (x, y), or None if it is not one."""
@@ -179,8 +178,7 @@ def _build(instance: Instance) -> Lattice:
             nb[nx - 1 if dk > 0 else 0, :, j] = -1
         if dl:
             nb[:, ny - 1 if dl > 0 else 0, j] = -1
-    sx, sy = instance.start
-    start = round(sx / step) * ny + round(sy / step)
+    start = point_index(instance.start, step, ny)
     pos = np.array([s.position for s in instance.sensors], dtype=float).reshape(-1, 2)
     distance = np.empty((len(pos), n))
     block = 2**16  # distances are computed in blocks of this many entries
@@ -192,15 +190,15 @@ def _build(instance: Instance) -> Lattice:
                      out=distance[i : i + rows, b:e])
     in_range = distance <= instance.channel.d_th + LATTICE_TOL
     blocked = np.zeros(n, dtype=bool)
-    for bx, by in instance.blocked:
-        blocked[round(bx / step) * ny + round(by / step)] = True
+    for b in instance.blocked:
+        blocked[point_index(b, step, ny)] = True
     if blocked.any():  # a move into a blocked point is illegal like one off the area
         neighbors[blocked] = -1
         neighbors[blocked[np.maximum(neighbors, 0)] & (neighbors >= 0)] = -1
     end = -1
     to_end = np.broadcast_to(np.int64(0), (n,))  # no end: zero moves left to make, and no memory
     if instance.end is not None:
-        end = round(instance.end[0] / step) * ny + round(instance.end[1] / step)
+        end = point_index(instance.end, step, ny)
         to_end = _grid.steps(nx, ny, blocked if blocked.any() else None, end)
     T = instance.horizon
     budget = T - 1 if instance.max_moves is None else min(T - 1, instance.max_moves)
