@@ -89,9 +89,7 @@ class MDP:
         if not self.masked or t + 1 >= self.horizon:
             return np.ones(k, dtype=bool)
         nxt = self.action_next[p, :k]
-        used = moves + (nxt != p)
-        left = np.minimum(self.horizon - 2 - t, self.budget - used)
-        return (used <= self.budget) & (self.to_end[nxt] <= left)
+        return lattice_mod.build(self.instance).can_finish(nxt, t + 1, moves + (nxt != p))
 
     def moves_made(self, state, t: int) -> int:
         """The moves made so far: in the state with a binding budget; otherwise they do not
