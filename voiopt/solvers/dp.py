@@ -144,10 +144,13 @@ def build_tables(instance: Instance, objective: str) -> Tables:
     for i in range(N):
         ids = np.flatnonzero(lat.in_range[i])
         sensor_points[i, : len(ids)] = ids
-    point_steps = np.empty((N, sensor_points.shape[1], n), dtype=np.int64)
+    point_steps = np.zeros((N, sensor_points.shape[1], n), dtype=np.int64)  # padding rows stay 0, never read
+    rows: dict[int, np.ndarray] = {}  # one search per distinct point: sensors share in-range points
     for i in range(N):
-        for j in range(sensor_points.shape[1]):
-            point_steps[i, j] = lat.steps_from(int(sensor_points[i, j]))
+        for j, q in enumerate(sensor_points[i, : sensor_point_count[i]].tolist()):
+            if q not in rows:
+                rows[q] = lat.steps_from(q)
+            point_steps[i, j] = rows[q]
     best_rank = core.best_rank_table(up_rank, point_steps, sensor_points, sensor_point_count)
     mode = core.SUM if objectives.get(objective).per_slot else core.MIN
     to_internal = (T if mode == core.SUM else 1.0) * (-1.0 if aoi else 1.0)
