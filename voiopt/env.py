@@ -103,6 +103,7 @@ class VoIEnv(gym.Env):
         self.state, self.t = self.model.initial_state(), 0
         self._positions: list[int] = []
         self._schedule: list[int] = []
+        self._idle = 0
 
     def optimum(self) -> float:
         """The certified mean-min-voi optimum that normalises the reward (once per instance)."""
@@ -213,7 +214,7 @@ class VoIEnv(gym.Env):
         return obs
 
     def _info(self) -> dict[str, Any]:
-        return {"action_mask": self.action_masks(), "slot": self.t, "idle_slots": getattr(self, "_idle", 0),
+        return {"action_mask": self.action_masks(), "slot": self.t, "idle_slots": self._idle,
                 "instance": self.instance.name}
 
     # ------------------------------------------------------------------ rendering
