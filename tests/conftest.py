@@ -69,3 +69,18 @@ def field_instances(count: int = 24, seed: int = 777) -> list[voiopt.Instance]:
         except voiopt.errors.InstanceError:
             continue
     return out
+
+
+def solve_model_file(model, solution=None):
+    """An exported MPS or LP read by HiGHS and solved to a zero gap (the solution written to
+    ``solution`` if given); returns the Highs object."""
+    import highspy
+
+    h = highspy.Highs()
+    h.silent()
+    h.setOptionValue("mip_rel_gap", 0.0)
+    assert h.readModel(str(model)) == highspy.HighsStatus.kOk
+    h.run()
+    if solution is not None:
+        h.writeSolution(str(solution), 0)
+    return h

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import highspy
 import pytest
-from conftest import ROOT
+from conftest import ROOT, solve_model_file
 from test_cli import one_line_error, run
 
 import voiopt
@@ -16,23 +16,13 @@ from voiopt.models.milp.solution_file import import_solution
 DOCK = ROOT / "instances" / "dock.json"
 
 
-def _solve_file(model, solution):
-    h = highspy.Highs()
-    h.silent()
-    h.setOptionValue("mip_rel_gap", 0.0)
-    assert h.readModel(str(model)) == highspy.HighsStatus.kOk
-    h.run()
-    h.writeSolution(str(solution), 0)
-    return h
-
-
 @pytest.mark.parametrize("name, objective", [("case-study", "mean-min-voi"), ("case-study", "max-aoi"),
                                              ("dock", "mean-min-voi"), ("dock", "min-voi")])
 def test_mps_round_trip_gives_the_optimum(tmp_path, name, objective):
     inst = voiopt.load(ROOT / "instances" / f"{name}.json")
     model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
     export(inst, objective, model)
-    _solve_file(model, solution)
+    solve_model_file(model, solution)
     got = import_solution(inst, objective, model, solution)
     best = voiopt.solve(inst, "dp", objective)
     assert best.status == "optimal"
@@ -53,7 +43,7 @@ def test_covering_problem_export_is_feasible_exactly_up_to_the_optimum(tmp_path)
     for level, feasible in ((k, True), (k + 1, False)):
         model = tmp_path / f"c{level}.mps"
         export(inst, "min-voi", model, covering_level=level)
-        h = _solve_file(model, tmp_path / "c.sol")
+        h = solve_model_file(model, tmp_path / "c.sol")
         status = h.getModelStatus()
         assert (status == highspy.HighsModelStatus.kOptimal) == feasible, (level, h.modelStatusToString(status))
         if feasible:
@@ -64,7 +54,7 @@ def test_covering_problem_export_is_feasible_exactly_up_to_the_optimum(tmp_path)
 def test_import_solution_command_and_errors(capsys, tmp_path):
     model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
     assert run(capsys, "export", str(DOCK), str(model))[0] == 0
-    _solve_file(model, solution)
+    solve_model_file(model, solution)
     out = tmp_path / "r.json"
     code, text, _ = run(capsys, "import-solution", str(DOCK), str(model), str(solution), "-o", str(out))
     assert code == 0 and "dock  import  mean-min-voi: feasible" in text

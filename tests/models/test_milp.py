@@ -5,7 +5,7 @@ from __future__ import annotations
 import highspy
 import numpy as np
 import pytest
-from conftest import tiny_instances
+from conftest import solve_model_file, tiny_instances
 from oracles.bruteforce import brute_force
 
 import voiopt
@@ -97,11 +97,7 @@ def test_export_reads_back_with_the_same_optimum(tmp_path, suffix, objective):
     best, _ = brute_force(inst, objective)
     path = tmp_path / f"model{suffix}"
     milp.export(inst, objective, path)
-    h = highspy.Highs()
-    h.silent()
-    h.setOptionValue("mip_rel_gap", 0.0)
-    assert h.readModel(str(path)) == highspy.HighsStatus.kOk
-    h.run()
+    h = solve_model_file(path)
     assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
     assert h.getInfo().objective_function_value == pytest.approx(best, rel=1e-6)
 

@@ -10,7 +10,7 @@ import random
 import highspy
 import numpy as np
 import pytest
-from conftest import field_instances
+from conftest import field_instances, solve_model_file
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -94,11 +94,7 @@ def test_exported_model_carries_the_fields(tmp_path, optima, objective):
     for inst in budgeted + ended:
         path = tmp_path / f"{inst.name}.mps"
         export(inst, objective, path)
-        h = highspy.Highs()
-        h.silent()
-        h.setOptionValue("mip_rel_gap", 0.0)
-        assert h.readModel(str(path)) == highspy.HighsStatus.kOk
-        h.run()
+        h = solve_model_file(path)
         assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
         assert h.getInfo().objective_function_value == pytest.approx(optima[inst.name, objective], rel=1e-6)
 
