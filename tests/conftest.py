@@ -71,6 +71,47 @@ def field_instances(count: int = 24, seed: int = 777) -> list[voiopt.Instance]:
     return out
 
 
+def fleet_instances(count: int = 12, seed: int = 4242) -> list[voiopt.Instance]:
+    """Tiny two-robot networks (MODEL.md section 10) small enough for the oracle's brute force
+    (2 x 2 or 3 x 2 lattices, T = 2..3, N = 1..3): robots start side by side, so the rules
+    between robots bind (no shared point, no swap, a sensor uploads to one robot per slot);
+    some cases add section 9's fields per robot (an end, a budget, a blocked point)."""
+    import random
+
+    from oracles import model_oracle as oracle
+
+    rng = random.Random(seed)
+    out = []
+    k = 0
+    while len(out) < count:
+        k += 1
+        horizon = 2 + k % 3
+        base = voiopt.generate(1 + k % (2 if horizon == 4 else 3), horizon, width=1.0 + (k % 4 == 3), height=1.0, seed=seed + k,
+                               name=f"fleet-{len(out):02d}", rho=(0.2, 0.95), power_w=rng.choice([1.0, 0.01]))
+        d = base.to_dict()
+        del d["start"]
+        points = [[x, y] for x in range(int(base.width) + 1) for y in range(int(base.height) + 1)]
+        a, b = rng.sample(points, 2)
+        robots = [{"start": a}, {"start": b}]
+        which = k % 4  # 0: plain, 1: ends, 2: a budget, 3: a blocked point and an end
+        if which in (1, 3):
+            free = [p for p in points if p not in (a, b)] if which == 3 else points
+            robots[0]["end"], robots[1]["end"] = rng.sample(free, 2)
+        if which == 2:
+            robots[rng.randint(0, 1)]["max_moves"] = rng.randint(0, 1)
+        if which == 3:
+            d["blocked"] = [rng.choice([p for p in points if p not in (a, b, robots[0]["end"], robots[1]["end"])]
+                                       or [a])]
+        d["robots"] = robots
+        try:
+            inst = voiopt.instance.from_dict(d)
+        except voiopt.errors.InstanceError:
+            continue
+        if oracle.count_legal_plans(d):  # ends that only a swap could reach admit no plan at all
+            out.append(inst)
+    return out
+
+
 def solve_model_file(model, solution=None):
     """An exported MPS or LP read by HiGHS and solved to a zero gap (the solution written to
     ``solution`` if given); returns the Highs object."""

@@ -27,6 +27,7 @@ factory floors, and they keep every derived number finite:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
@@ -51,6 +52,7 @@ MAX_DB = 3000.0  # |g0_db|, |noise_dbm_per_hz|
 MIN_LINEAR, MAX_LINEAR = 1e-300, 1e300  # B * N0, P * g0 and B * N0 * d^2 [W]; the SNR at any distance
 MAX_BANDWIDTH_HZ = 1e300
 MAX_NAME = 200
+MAX_ROBOTS = 64  # robots of MODEL.md section 10: far above what any method can plan jointly
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,15 @@ class Sensor:
 
 
 @dataclass(frozen=True)
+class Robot:
+    """One collector of MODEL.md section 10: its start, and its own section-9 end and budget."""
+
+    start: tuple[float, float]
+    end: tuple[float, float] | None = None
+    max_moves: int | None = None
+
+
+@dataclass(frozen=True)
 class Instance:
     name: str
     width: float
@@ -83,15 +94,37 @@ class Instance:
     blocked: tuple[tuple[float, float], ...] = ()  # MODEL.md section 9: points never stood on
     end: tuple[float, float] | None = None  # the point of the last slot, positions[T-1]
     max_moves: int | None = None  # at most this many slots with a change of position
+    # MODEL.md section 10: two or more robots (then start, end and max_moves above are robot 0's,
+    # and only ``robot(k)`` may be planned alone); () for one robot, whichever form its file used
+    fleet: tuple[Robot, ...] = ()
 
     @property
     def n_sensors(self) -> int:
         return len(self.sensors)
 
     @property
+    def n_robots(self) -> int:
+        return max(1, len(self.fleet))
+
+    @property
+    def robots(self) -> tuple[Robot, ...]:
+        """Every robot, one entry for a one-robot instance."""
+        return self.fleet or (Robot(self.start, self.end, self.max_moves),)
+
+    def robot(self, k: int) -> Instance:
+        """The one-robot instance of robot k alone: the network, with robot k's start, end and
+        budget (its lattice, rules and bounds are those of section 9)."""
+        if not self.fleet:
+            if k != 0:
+                raise IndexError(f"robot {k}: the instance has one robot")
+            return self
+        r = self.fleet[k]
+        return dataclasses.replace(self, start=r.start, end=r.end, max_moves=r.max_moves, fleet=())
+
+    @property
     def has_field_rules(self) -> bool:
-        """Any of the optional rules of MODEL.md section 9 is given."""
-        return bool(self.blocked) or self.end is not None or self.max_moves is not None
+        """Any of the optional rules of MODEL.md section 9 is given (by any robot)."""
+        return bool(self.blocked) or any(r.end is not None or r.max_moves is not None for r in self.robots)
 
     def initial_distance(self, i: int) -> float:
         q = self.sensors[i].initial_distance
@@ -104,7 +137,6 @@ class Instance:
             "area": {"width": self.width, "height": self.height},
             "step": self.step,
             "horizon": self.horizon,
-            "start": list(self.start),
             "channel": {
                 "g0_db": c.g0_db,
                 "bandwidth_hz": c.bandwidth_hz,
@@ -124,11 +156,11 @@ class Instance:
         }
         if self.blocked:  # section 9's fields only when given: the paper's files stay as they were
             d["blocked"] = [list(b) for b in self.blocked]
-        if self.end is not None:
-            d["end"] = list(self.end)
-        if self.max_moves is not None:
-            d["max_moves"] = self.max_moves
-        return d
+        if self.fleet:
+            d["robots"] = [_robot_dict(r) for r in self.fleet]
+        else:
+            d.update(_robot_dict(self.robots[0]))
+        return {k: d[k] for k in _ORDER if k in d}
 
     def replace(self, **changes: Any) -> Instance:
         """A copy with some fields changed, validated again."""
@@ -136,6 +168,19 @@ class Instance:
         for key, value in changes.items():
             d[key] = value
         return from_dict(d)
+
+
+_ORDER = ("name", "area", "step", "horizon", "start", "robots", "channel", "sensors", "blocked", "end", "max_moves")
+
+
+def _robot_dict(r: Robot) -> dict[str, Any]:
+    """A robot's fields as JSON, section 9's only when given."""
+    d: dict[str, Any] = {"start": list(r.start)}
+    if r.end is not None:
+        d["end"] = list(r.end)
+    if r.max_moves is not None:
+        d["max_moves"] = r.max_moves
+    return d
 
 
 def on_lattice(x: float, step: float) -> bool:
@@ -219,10 +264,13 @@ _SENSOR_REQUIRED = ("position", "rho")
 def from_dict(d: Any, source: str = "") -> Instance:
     """Validate a decoded instance JSON object; raise InstanceError naming the first bad field."""
     ck = _Checker()
-    top = {"name", "area", "step", "horizon", "start", "channel", "sensors", "blocked", "end", "max_moves"}
-    d = ck.obj(d, "", top, {"area", "horizon", "start", "sensors"})
+    top = {"name", "area", "step", "horizon", "start", "robots", "channel", "sensors", "blocked", "end", "max_moves"}
+    d = ck.obj(d, "", top, {"area", "horizon", "sensors"})
     if d is None:
         _raise(ck, source)
+    if ("start" in d) == ("robots" in d):
+        ck.fail("start", "is required (or robots, for several robots)" if "start" not in d else
+                "must not be given with robots (each robot has its own start)")
     name = d.get("name", Path(source).stem if source else "instance")
     if "name" in d:
         _check_name(ck, name)
@@ -242,10 +290,8 @@ def from_dict(d: Any, source: str = "") -> Instance:
         channel = None if ch is None else _check_channel(ck, ch)
 
     area_ok = n_points is not None
-    start = _lattice_point(ck, d, "start", "", width, height, step, area_ok) if "start" in d else None
-    end = _lattice_point(ck, d, "end", "", width, height, step, area_ok) if "end" in d else None
     blocked = _check_blocked(ck, d["blocked"], width, height, step, area_ok, n_points) if "blocked" in d else ()
-    max_moves = ck.integer(d, "max_moves", "", None, 0)
+    robots = _check_robots(ck, d, width, height, step, area_ok)
 
     sensors: list[Sensor] = []
     raw = d.get("sensors")
@@ -302,11 +348,57 @@ def from_dict(d: Any, source: str = "") -> Instance:
         ck.fail("sensors", f"must make at most {MAX_SENSOR_POINTS} sensor-lattice point pairs (the lattice's distance "
                            f"tables), but {len(raw)} sensors on {n_points} lattice points make {len(raw) * n_points}")
 
-    if not ck.errors and (blocked or end is not None):
-        _check_route(ck, width, height, step, horizon, start, end, blocked, max_moves)
+    if not ck.errors:
+        for path, r in robots:
+            if blocked or r.end is not None:
+                _check_route(ck, width, height, step, horizon, r.start, r.end, blocked, r.max_moves, path)
     if ck.errors:
         _raise(ck, source)
-    return Instance(name, width, height, horizon, start, tuple(sensors), step, channel, blocked, end, max_moves)
+    first = robots[0][1]
+    fleet = tuple(r for _, r in robots) if len(robots) > 1 else ()
+    return Instance(name, width, height, horizon, first.start, tuple(sensors), step, channel, blocked, first.end,
+                    first.max_moves, fleet)
+
+
+_ROBOT_FIELDS = frozenset({"start", "end", "max_moves"})
+
+
+def _check_robots(ck: _Checker, d: dict, width, height, step, area_ok: bool) -> list[tuple[str, Robot]]:
+    """The robots as (path prefix, Robot): the top-level start, end and max_moves of one robot,
+    or the ``robots`` list of MODEL.md section 10 (distinct starts, distinct ends). A
+    one-entry list is the same instance as the flat form. Empty (with failures) when invalid."""
+    if "robots" not in d:
+        entries = [("", d)]
+    else:
+        for key in ("end", "max_moves"):
+            if key in d:
+                ck.fail(key, f"must not be given at the top level with robots (give it per robot), got {show(d[key])}")
+        raw = d["robots"]
+        if not isinstance(raw, list) or not raw or len(raw) > MAX_ROBOTS:
+            ck.fail("robots", f"must be a list of 1 to {MAX_ROBOTS} robots {{start, end?, max_moves?}}, got {show(raw)}")
+            return []
+        entries = []
+        for k, r in enumerate(raw):
+            if ck.obj(r, f"robots[{k}]", _ROBOT_FIELDS, {"start"}) is not None and "start" in r:
+                entries.append((f"robots[{k}]", r))
+    out = []
+    for path, r in entries:
+        start = _lattice_point(ck, r, "start", path, width, height, step, area_ok) if "start" in r else None
+        end = _lattice_point(ck, r, "end", path, width, height, step, area_ok) if "end" in r else None
+        max_moves = ck.integer(r, "max_moves", path, None, 0)
+        if start is not None and ("end" not in r or end is not None) and ("max_moves" not in r or max_moves is not None):
+            out.append((path, Robot(start, end, max_moves)))
+    for key, what in (("start", "slot 0"), ("end", "the last slot")):
+        seen: dict[tuple[float, float], str] = {}
+        for path, r in out:
+            p = getattr(r, key)
+            if p is None:
+                continue
+            if p in seen:
+                ck.fail(_join(path, key), f"{_xy(p)} is also {seen[p]}.{key}: two robots may never share a lattice "
+                                          f"point, so no plan could place both there in {what}")
+            seen[p] = path
+    return out if len(out) == len(entries) else []
 
 
 def _xy(p: tuple[float, float]) -> str:
@@ -381,7 +473,7 @@ def _blocked_at_once(raw: list, width: float, height: float, step: float) -> tup
     return tuple(map(tuple, (k * step).tolist()))
 
 
-def _check_route(ck: _Checker, width, height, step, horizon, start, end, blocked, max_moves) -> None:
+def _check_route(ck: _Checker, width, height, step, horizon, start, end, blocked, max_moves, path: str = "") -> None:
     """Start and end are free, and some legal plan exists: ``end`` is within reach of start
     in at most T - 1 moves and max_moves, around the blocked points (a BFS, _grid.steps)."""
     from voiopt import _grid
@@ -394,7 +486,8 @@ def _check_route(ck: _Checker, width, height, step, horizon, start, end, blocked
     for name, p in (("start", start), ("end", end)):
         if p is not None:
             for j in np.flatnonzero(keys == point_index(p, step, ny)).tolist():
-                ck.fail(f"blocked[{j}]", f"{_xy(blocked[j])} is the {name} point, which must stay free")
+                what = f"the {name} point" if not path else f"{path}.{name}"
+                ck.fail(f"blocked[{j}]", f"{_xy(blocked[j])} is {what}, which must stay free")
     if ck.errors or end is None:
         return
     moves = _grid.steps(nx, ny, mask, point_index(start, step, ny))[point_index(end, step, ny)]
@@ -402,9 +495,9 @@ def _check_route(ck: _Checker, width, height, step, horizon, start, end, blocked
     why = f"horizon {horizon} allows {horizon - 1}" if allowed == horizon - 1 else f"max_moves is {max_moves}"
     around = " around the blocked points" if blocked else ""
     if moves >= _grid.UNREACHABLE:
-        ck.fail("end", f"{_xy(end)} is not reachable from start {_xy(start)}: the blocked points wall it off")
+        ck.fail(_join(path, "end"), f"{_xy(end)} is not reachable from start {_xy(start)}: the blocked points wall it off")
     elif moves > allowed:
-        ck.fail("end", f"{_xy(end)} is not reachable within {allowed} moves ({why}): it is {moves} moves "
+        ck.fail(_join(path, "end"), f"{_xy(end)} is not reachable within {allowed} moves ({why}): it is {moves} moves "
                        f"from start {_xy(start)}{around}")
 
 

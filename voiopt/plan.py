@@ -7,10 +7,12 @@ import os
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from voiopt import lattice
 from voiopt._files import read_json
 from voiopt.errors import PlanError
-from voiopt.instance import MAX_HORIZON, MAX_SENSORS, Instance, show
+from voiopt.instance import MAX_HORIZON, MAX_ROBOTS, MAX_SENSORS, Instance, show
 
 
 def _num(v: float) -> float | int:
@@ -35,20 +37,35 @@ def _key(k: Any) -> str:
 
 @dataclass(frozen=True)
 class Plan:
+    """One robot's plan: p(t) and u(t) for t = 0..T-1."""
+
     positions: tuple[tuple[float, float], ...]
     schedule: tuple[int | None, ...]
 
+    @property
+    def robots(self) -> tuple[Plan, ...]:
+        """Each robot's plan: this one (a FleetPlan has one per robot)."""
+        return (self,)
+
     @classmethod
-    def from_dict(cls, d: Any) -> Plan:
-        """A plan object, or a whole result JSON whose ``plan`` is used. Every message names
-        the field and shows the value briefly (``show``), however large or deep it is."""
-        if isinstance(d, dict) and "plan" in d and "positions" not in d:
+    def from_dict(cls, d: Any) -> Plan | FleetPlan:
+        """A plan object, or a whole result JSON whose ``plan`` is used: the flat form of
+        MODEL.md section 3 or the ``robots`` form of section 10 (a FleetPlan; a one-entry list
+        is that robot's Plan, the same plan). Every message names the field and shows the
+        value briefly (``show``), however large or deep it is."""
+        if isinstance(d, dict) and "plan" in d and "positions" not in d and "robots" not in d:
             d = d["plan"]
             where = "plan."
         else:
             where = ""
+        if isinstance(d, dict) and "robots" in d:
+            return FleetPlan.from_dict(d, where)
+        return cls._one(d, where)
+
+    @classmethod
+    def _one(cls, d: Any, where: str) -> Plan:
         if not isinstance(d, dict):
-            raise PlanError(f"plan: must be an object with positions and schedule, got {show(d)}")
+            raise PlanError(f"{where.rstrip('.') or 'plan'}: must be an object with positions and schedule, got {show(d)}")
         unknown = [k for k in d if k not in ("positions", "schedule")]
         if unknown:
             raise PlanError(f"{where}{_key(unknown[0])}: unknown field (allowed: positions, schedule)")
@@ -83,14 +100,40 @@ class Plan:
         }
 
     @classmethod
-    def from_indices(cls, instance: Instance, idx, sched) -> Plan:
-        """A plan from lattice point indices and a schedule with -1 for none."""
+    def from_indices(cls, instance: Instance, idx, sched) -> Plan | FleetPlan:
+        """A plan from lattice point indices and a schedule with -1 for none: (T,) arrays for
+        one robot, (K, T) arrays for a fleet (a FleetPlan)."""
         pts = lattice.build(instance).points
+        if np.ndim(idx) == 2:
+            return FleetPlan(tuple(cls.from_indices(instance, i, u) for i, u in zip(idx, sched, strict=True)))
         return cls(
             tuple((float(pts[p, 0]), float(pts[p, 1])) for p in idx),
             tuple(None if u < 0 else int(u) for u in sched),
         )
 
 
-def load_plan(path: str | os.PathLike) -> Plan:
+@dataclass(frozen=True)
+class FleetPlan:
+    """A plan for K >= 2 robots (MODEL.md section 10): one Plan per robot, in file order."""
+
+    robots: tuple[Plan, ...]
+
+    @classmethod
+    def from_dict(cls, d: dict, where: str = "") -> Plan | FleetPlan:
+        unknown = [k for k in d if k != "robots"]
+        if unknown:
+            raise PlanError(f"{where}{_key(unknown[0])}: unknown field beside robots (a fleet plan is "
+                            "{\"robots\": [{positions, schedule}, ...]})")
+        raw = d["robots"]
+        if not isinstance(raw, list) or not raw or len(raw) > MAX_ROBOTS:
+            raise PlanError(f"{where}robots: must be a list of 1 to {MAX_ROBOTS} plans {{positions, schedule}}, "
+                            f"got {show(raw)}")
+        plans = tuple(Plan._one(r, f"{where}robots[{k}].") for k, r in enumerate(raw))
+        return plans[0] if len(plans) == 1 else cls(plans)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"robots": [p.to_dict() for p in self.robots]}
+
+
+def load_plan(path: str | os.PathLike) -> Plan | FleetPlan:
     return Plan.from_dict(read_json(path, error=PlanError))

@@ -15,23 +15,28 @@ from voiopt import physics
 from voiopt.errors import PlanError
 from voiopt.instance import Instance
 from voiopt.objectives import metrics_of
-from voiopt.plan import Plan
+from voiopt.plan import FleetPlan, Plan
 
 
 @dataclass(frozen=True)
 class Trajectory:
     """Per-slot state, index t = 0..T (row 0 is the initial state, rows 1..T are scored)."""
 
-    positions: np.ndarray  # (T, ) lattice point index of p(t), t = 0..T-1
-    schedule: np.ndarray  # (T, ) sensor index or -1
+    positions: np.ndarray  # (T, ) lattice point index of p(t), t = 0..T-1; (K, T) for a fleet
+    schedule: np.ndarray  # (T, ) sensor index or -1; (K, T) for a fleet
     aoi: np.ndarray  # (T+1, N) A_i(t)
     distance: np.ndarray  # (T+1, N) q_i(t)
     voi: np.ndarray  # (T+1, N) V_i(t), bit/s
     metrics: dict[str, float]
 
 
-def check_plan(instance: Instance, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
-    """Validate a plan against MODEL.md section 3; return (point indices, schedule with -1)."""
+def check_plan(instance: Instance, plan: Plan | FleetPlan) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a plan against MODEL.md sections 3, 9 and 10; return (point indices, schedule
+    with -1): (T,) arrays for one robot, (K, T) for a fleet."""
+    if instance.fleet or len(plan.robots) > 1:
+        return _check_fleet(instance, plan)
+    if isinstance(plan, FleetPlan):
+        plan = plan.robots[0]
     lat = lattice_mod.build(instance)
     T, N = instance.horizon, instance.n_sensors
     if len(plan.positions) != T:
@@ -75,6 +80,37 @@ def check_plan(instance: Instance, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
     return idx, sched
 
 
+def _check_fleet(instance: Instance, plan: Plan | FleetPlan) -> tuple[np.ndarray, np.ndarray]:
+    """Each robot's plan on its own (section 9, messages prefixed robots[k].), then the rules
+    between robots of section 10: no shared point, no swap, no sensor uploading twice."""
+    K, T = instance.n_robots, instance.horizon
+    if len(plan.robots) != K:
+        raise PlanError(f"robots: the instance has {K} robots, so a plan needs one entry per robot "
+                        f"({{\"robots\": [{{positions, schedule}}, ...]}}), got {len(plan.robots)}")
+    idx = np.empty((K, T), dtype=np.int64)
+    sched = np.empty((K, T), dtype=np.int64)
+    for k in range(K):
+        try:
+            idx[k], sched[k] = check_plan(instance.robot(k), plan.robots[k])
+        except PlanError as e:
+            raise PlanError(f"robots[{k}].{e}") from None
+    pts = lattice_mod.build(instance).points
+    xy = lambda p: f"[{pts[p, 0]:g}, {pts[p, 1]:g}]"  # noqa: E731
+    for t in range(T):
+        for k in range(1, K):
+            for j in range(k):
+                if idx[k, t] == idx[j, t]:
+                    raise PlanError(f"robots[{k}].positions[{t}]: {xy(idx[k, t])} is also robot {j}'s point in slot "
+                                    f"{t} (two robots never share a lattice point)")
+                if t and idx[k, t] == idx[j, t - 1] and idx[j, t] == idx[k, t - 1]:
+                    raise PlanError(f"robots[{k}].positions[{t}]: robots {j} and {k} swap points {xy(idx[j, t])} and "
+                                    f"{xy(idx[k, t])} between slots {t - 1} and {t} (robots never swap points)")
+                if sched[k, t] >= 0 and sched[k, t] == sched[j, t]:
+                    raise PlanError(f"robots[{k}].schedule[{t}]: sensor {sched[k, t]} also uploads to robot {j} in slot "
+                                    f"{t} (a sensor uploads to at most one robot per slot)")
+    return idx, sched
+
+
 def _check_field_rules(instance: Instance, plan: Plan, idx: np.ndarray) -> None:
     """``end`` and ``max_moves`` of MODEL.md section 9 (blocked points are checked per slot)."""
     T = instance.horizon
@@ -103,30 +139,34 @@ def advance(aoi: np.ndarray, q: np.ndarray, upload: int, q_upload) -> tuple[np.n
     return aoi, q
 
 
-def simulate(instance: Instance, plan: Plan) -> Trajectory:
+def simulate(instance: Instance, plan: Plan | FleetPlan) -> Trajectory:
     """Run a plan through the dynamics; reject illegal plans with a PlanError."""
     idx, sched = check_plan(instance, plan)
     return simulate_indices(instance, idx, sched)
 
 
 def simulate_indices(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> Trajectory:
-    """The dynamics for an already-checked plan given as point indices and schedule (-1 = none)."""
+    """The dynamics for an already-checked plan given as point indices and schedule (-1 = none):
+    (T,) arrays for one robot, (K, T) for a fleet, whose uploads in a slot all count (section 10)."""
     lat = lattice_mod.build(instance)
     T, N = instance.horizon, instance.n_sensors
     aoi = np.empty((T + 1, N), dtype=np.int64)
     dist = np.empty((T + 1, N))
     aoi[0] = [s.initial_aoi for s in instance.sensors]
     dist[0] = [instance.initial_distance(i) for i in range(N)]
+    fleet_idx, fleet_sched = np.atleast_2d(idx), np.atleast_2d(sched)
     for t in range(T):
-        u = sched[t]
-        aoi[t + 1], dist[t + 1] = advance(aoi[t], dist[t], u, lat.distance[u, idx[t]] if u >= 0 else 0.0)
+        aoi[t + 1], dist[t + 1] = advance(aoi[t], dist[t], -1, 0.0)
+        for p, u in zip(fleet_idx[:, t], fleet_sched[:, t], strict=True):
+            if u >= 0:
+                aoi[t + 1, u], dist[t + 1, u] = 1, lat.distance[u, p]
     rho = np.array([s.rho for s in instance.sensors])
     power = np.array([s.power_w for s in instance.sensors])
     v = physics.voi(aoi, dist, rho, power, instance.channel)
     return Trajectory(idx, sched, aoi, dist, v, metrics_of(aoi, v))
 
 
-def evaluate(instance: Instance, plan: Plan) -> dict[str, float]:
+def evaluate(instance: Instance, plan: Plan | FleetPlan) -> dict[str, float]:
     """The four metrics of a plan (raises PlanError if the plan is illegal)."""
     return simulate(instance, plan).metrics
 

@@ -31,6 +31,17 @@ METHODS: dict[str, tuple[str, str]] = {
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds
 RANDOMISED = frozenset({"qlearning", "aoi-qlearning"})
 
+# methods that plan for several robots (MODEL.md section 10); the others plan for one
+FLEET: frozenset[str] = frozenset()
+
+
+def check_robots(instance: Instance, method: str) -> None:
+    """Refuse, in one line, a fleet instance for a method that plans for one robot."""
+    if instance.fleet and method not in FLEET:
+        others = ", ".join(m for m in METHODS if m in FLEET) or "none yet"
+        raise OptionError(f"method: {method!r} plans for one robot, but the instance has {instance.n_robots} robots "
+                          f"(methods for several robots: {others})")
+
 
 def solver_function(method: str):
     if method not in METHODS:
@@ -43,6 +54,7 @@ def solve(instance: Instance, method: str = "milp", objective: str = DEFAULT, **
     """Solve ``instance`` with ``method`` for ``objective``; every value in the Result is simulated."""
     check_objective(objective)
     fn = solver_function(method)
+    check_robots(instance, method)
     params = inspect.signature(fn).parameters
     if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
         for key in options:

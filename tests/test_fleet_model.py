@@ -1,0 +1,179 @@
+"""Several robots (MODEL.md section 10) in the core: the ``robots`` instance form, fleet plans and
+the simulator's rules between robots, each checked against the independent oracle of
+tests/oracles/model_oracle.py."""
+
+from __future__ import annotations
+
+import copy
+import json
+import random
+
+import pytest
+from conftest import case_study as _case_study  # noqa: F401  (the fixture)
+from conftest import field_instances, fleet_instances
+from oracles import model_oracle as oracle
+
+import voiopt
+from voiopt.errors import InstanceError, PlanError
+from voiopt.instance import from_dict
+from voiopt.plan import FleetPlan, Plan
+
+CASES = fleet_instances()
+
+
+def test_cases_make_the_rules_between_robots_bind():
+    """Dropping robot 1 (so robot 0 plans alone) changes the oracle's legal plan count in
+    every case: the shared fixture is worth testing on."""
+    assert len(CASES) >= 10
+    for inst in CASES:
+        assert inst.n_robots == 2 and inst.fleet
+        assert oracle.count_legal_plans(inst.to_dict()) > 0
+
+
+@pytest.mark.parametrize("inst", CASES, ids=lambda i: i.name)
+def test_random_legal_fleet_plans_evaluate_to_the_oracle(inst):
+    d = inst.to_dict()
+    rng = random.Random(inst.name)
+    for _ in range(25):
+        plan = oracle.random_legal_plan(d, rng)
+        got = voiopt.evaluate(inst, Plan.from_dict(plan))
+        want = oracle.simulate(d, plan)
+        for ob in oracle.OBJECTIVES:
+            assert got[ob] == pytest.approx(want[ob], rel=1e-12, abs=1e-300), (ob, plan)
+
+
+def test_fleet_instance_round_trips():
+    for inst in CASES:
+        again = from_dict(json.loads(json.dumps(inst.to_dict())))
+        assert again == inst
+        assert "start" not in inst.to_dict() and len(inst.to_dict()["robots"]) == 2
+
+
+def test_one_robot_instance_accepts_both_forms_with_the_same_metrics(case_study):
+    """The one-entry robots form is the same instance and the same plan as the flat form."""
+    d = case_study.to_dict()
+    robots = copy.deepcopy(d)
+    robots["robots"] = [{"start": robots.pop("start")}]
+    assert from_dict(robots) == case_study
+    plan = voiopt.load_plan(voiopt.instance.Path(__file__).parent.parent / "instances" / "case-study.plan.json")
+    wrapped = Plan.from_dict({"robots": [plan.to_dict()]})
+    assert wrapped == plan
+    assert voiopt.evaluate(case_study, wrapped) == voiopt.evaluate(case_study, plan)
+    for inst in field_instances(6):
+        flat = inst.to_dict()
+        form = {k: v for k, v in flat.items() if k not in ("start", "end", "max_moves")}
+        form["robots"] = [{k: flat[k] for k in ("start", "end", "max_moves") if k in flat}]
+        assert from_dict(form) == inst
+
+
+def _legal(inst):
+    return oracle.random_legal_plan(inst.to_dict(), random.Random(1))
+
+
+def _with(plan, k, t, **change):
+    out = copy.deepcopy(plan)
+    for key, v in change.items():
+        out["robots"][k][key][t] = v
+    return out
+
+
+def _two_robots(T=3, **extra):
+    """A 3 x 1 corridor: robots at either end, one sensor in the middle."""
+    d = {"area": {"width": 2, "height": 0.0001}, "step": 1, "horizon": T,
+         "robots": [{"start": [0, 0]}, {"start": [2, 0]}], "channel": {"d_th": 1.0},
+         "sensors": [{"position": [1, 0], "rho": 0.5}]}
+    d.update(extra)
+    return d
+
+
+@pytest.mark.parametrize("rule, plan, message", [
+    ("vertex", {"robots": [{"positions": [[0, 0], [1, 0], [1, 0]], "schedule": [0, None, None]},
+                           {"positions": [[2, 0], [1, 0], [2, 0]], "schedule": [None, None, None]}]},
+     "robots[1].positions[1]: [1, 0] is also robot 0's point in slot 1"),
+    ("swap", {"robots": [{"positions": [[0, 0], [1, 0], [2, 0]], "schedule": [None, None, None]},
+                         {"positions": [[2, 0], [2, 0], [1, 0]], "schedule": [None, None, None]}]},
+     "robots[1].positions[2]: robots 0 and 1 swap points"),
+    ("upload twice", {"robots": [{"positions": [[0, 0], [0, 0], [0, 0]], "schedule": [0, None, None]},
+                                 {"positions": [[2, 0], [2, 0], [2, 0]], "schedule": [0, None, None]}]},
+     "robots[1].schedule[0]: sensor 0 also uploads to robot 0 in slot 0"),
+    ("end", {"robots": [{"positions": [[0, 0], [0, 0], [0, 0]], "schedule": [None, None, None]},
+                        {"positions": [[2, 0], [2, 0], [2, 0]], "schedule": [None, None, None]}]},
+     "robots[0].positions[2]: must equal end [1, 0]"),
+    ("count", {"robots": [{"positions": [[0, 0], [0, 0], [0, 0]], "schedule": [None, None, None]}]},
+     "the instance has 2 robots"),
+])
+def test_rules_between_robots_reject_with_the_robot_slot_and_rule(rule, plan, message, tmp_path):
+    d = _two_robots()
+    if rule == "end":
+        d["robots"][0]["end"] = [1, 0]
+    inst = from_dict(d)
+    with pytest.raises(oracle.OracleError):
+        oracle.simulate(d, plan)
+    with pytest.raises(PlanError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        voiopt.evaluate(inst, Plan.from_dict(plan))
+    # and on the command line: one line, exit 2
+    (tmp_path / "i.json").write_text(json.dumps(d))
+    (tmp_path / "p.json").write_text(json.dumps(plan))
+    from voiopt.cli import main
+    assert main(["evaluate", str(tmp_path / "i.json"), str(tmp_path / "p.json")]) == 2
+
+
+def test_each_swap_and_shared_point_the_oracle_rejects_voiopt_rejects():
+    """Mutations of legal plans (moving one robot onto the other's next or current point):
+    voiopt rejects exactly the plans the oracle rejects."""
+    rng = random.Random(5)
+    checked = 0
+    for inst in CASES:
+        d = inst.to_dict()
+        for _ in range(20):
+            plan = oracle.random_legal_plan(d, rng)
+            k, t = rng.randrange(2), rng.randrange(inst.horizon)
+            bad = _with(plan, k, t, positions=plan["robots"][1 - k]["positions"][max(0, t - rng.randint(0, 1))])
+            bad = _with(bad, k, t, schedule=rng.choice([None, *range(inst.n_sensors)]))
+            try:
+                want = oracle.simulate(d, bad)
+            except oracle.OracleError:
+                want = None
+            if want is None:
+                with pytest.raises(PlanError):
+                    voiopt.evaluate(inst, Plan.from_dict(bad))
+            else:
+                assert voiopt.evaluate(inst, Plan.from_dict(bad))["mean-min-voi"] == pytest.approx(want["mean-min-voi"])
+            checked += 1
+    assert checked >= 200
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"robots": [{"start": [0, 0]}, {"start": [0, 0]}]}, "robots[1].start: [0, 0] is also robots[0].start"),
+    ({"robots": [{"start": [0, 0], "end": [1, 0]}, {"start": [2, 0], "end": [1, 0]}]},
+     "robots[1].end: [1, 0] is also robots[0].end"),
+    ({"start": [0, 0]}, "start: must not be given with robots"),
+    ({"max_moves": 2}, "max_moves: must not be given at the top level with robots"),
+    ({"robots": []}, "robots: must be a list of 1 to 64 robots"),
+    ({"robots": [{"start": [0, 0], "speed": 2}]}, "robots[0].speed: unknown field"),
+    ({"robots": [{"start": [0, 0]}, {"end": [1, 0]}]}, "robots[1].start: is required"),
+    ({"robots": [{"start": [0, 0]}, {"start": [2, 0], "end": [0, 0], "max_moves": 1}]},
+     "robots[1].end: [0, 0] is not reachable within 1 moves"),
+    ({"robots": [{"start": [0, 0]}, {"start": [2, 0]}], "blocked": [[2, 0]]}, "blocked[0]: [2, 0] is robots[1].start"),
+])
+def test_fleet_instance_errors_name_the_robot(change, message):
+    d = _two_robots()
+    d.update(change)
+    with pytest.raises(InstanceError) as e:
+        from_dict(d)
+    assert str(e.value).startswith(message), str(e.value)
+    with pytest.raises(oracle.OracleError):
+        oracle.check_instance(d)
+
+
+def test_single_robot_methods_refuse_a_fleet_in_one_line():
+    inst = CASES[0]
+    with pytest.raises(voiopt.OptionError, match="plans for one robot, but the instance has 2 robots"):
+        voiopt.solve(inst, "beam")
+
+
+def test_fleet_plan_json_round_trips():
+    for inst in CASES[:4]:
+        plan = Plan.from_dict(_legal(inst))
+        assert isinstance(plan, FleetPlan) and len(plan.robots) == 2
+        assert Plan.from_dict(json.loads(json.dumps(plan.to_dict()))) == plan
