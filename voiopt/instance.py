@@ -34,25 +34,31 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from voiopt._checker import Checker as _Checker
-from voiopt._checker import _join, show
+from voiopt._checker import show
 from voiopt._files import loads_json, read_json, write_json_atomic
+from voiopt._places import (  # noqa: F401  (the lattice's geometry and caps are also instance.py's names)
+    LATTICE_TOL,
+    MAX_LATTICE_POINTS,
+    MAX_ROBOTS,
+    check_blocked,
+    check_robots,
+    check_route,
+    lattice_point,
+    lattice_shape,
+    on_lattice,
+    point_index,
+)
 from voiopt.errors import InstanceError
-
-LATTICE_TOL = 1e-9  # absolute tolerance for "is a lattice point" and "within d_th"
 
 MAX_HORIZON = 10**6
 MAX_AGE = 2 * 10**6  # initial_aoi + horizon: the largest age A_i(t)
-MAX_LATTICE_POINTS = 10**6
 MAX_SENSORS = 10**4
 MAX_SENSOR_POINTS = 2 * 10**6  # sensors x lattice points
 MAX_DB = 3000.0  # |g0_db|, |noise_dbm_per_hz|
 MIN_LINEAR, MAX_LINEAR = 1e-300, 1e300  # B * N0, P * g0 and B * N0 * d^2 [W]; the SNR at any distance
 MAX_BANDWIDTH_HZ = 1e300
 MAX_NAME = 200
-MAX_ROBOTS = 64  # robots of MODEL.md section 10: far above what any method can plan jointly
 
 
 @dataclass(frozen=True)
@@ -183,29 +189,6 @@ def _robot_dict(r: Robot) -> dict[str, Any]:
     return d
 
 
-def on_lattice(x: float, step: float) -> bool:
-    q = x / step
-    if not math.isfinite(q):
-        return False
-    k = round(q)
-    return abs(k * step - x) <= LATTICE_TOL
-
-
-def point_index(p: tuple[float, float], step: float, ny: int) -> int:
-    """The index k * ny + l of the lattice point p = (k * step, l * step) (MODEL.md section 2)."""
-    return round(p[0] / step) * ny + round(p[1] / step)
-
-
-def lattice_shape(width: float, height: float, step: float) -> tuple[float, float]:
-    """(nx, ny) of MODEL.md section 2: floor(width / step) + 1 by floor(height / step) + 1.
-    Exact ints when the lattice is within the cap; otherwise floats, possibly inf, computed
-    without building or overflowing anything."""
-    out = []
-    for r in (width / step, height / step):
-        out.append(math.floor(r + LATTICE_TOL) + 1 if r <= MAX_LATTICE_POINTS else r + 1)
-    return out[0], out[1]
-
-
 def _count(x: float) -> str:
     if x <= 10**15:
         return str(int(x))
@@ -290,8 +273,8 @@ def from_dict(d: Any, source: str = "") -> Instance:
         channel = None if ch is None else _check_channel(ck, ch)
 
     area_ok = n_points is not None
-    blocked = _check_blocked(ck, d["blocked"], width, height, step, area_ok, n_points) if "blocked" in d else ()
-    robots = _check_robots(ck, d, width, height, step, area_ok)
+    blocked = check_blocked(ck, d["blocked"], width, height, step, area_ok, n_points) if "blocked" in d else ()
+    robots = check_robots(ck, d, width, height, step, area_ok)
 
     sensors: list[Sensor] = []
     raw = d.get("sensors")
@@ -349,156 +332,16 @@ def from_dict(d: Any, source: str = "") -> Instance:
                            f"tables), but {len(raw)} sensors on {n_points} lattice points make {len(raw) * n_points}")
 
     if not ck.errors:
-        for path, r in robots:
-            if blocked or r.end is not None:
-                _check_route(ck, width, height, step, horizon, r.start, r.end, blocked, r.max_moves, path)
+        for path, (start, end, max_moves) in robots:
+            if blocked or end is not None:
+                check_route(ck, width, height, step, horizon, start, end, blocked, max_moves, path)
     if ck.errors:
         _raise(ck, source)
-    first = robots[0][1]
-    fleet = tuple(r for _, r in robots) if len(robots) > 1 else ()
+    fleet = tuple(Robot(*r) for _, r in robots)
+    first = fleet[0]
+    fleet = fleet if len(fleet) > 1 else ()
     return Instance(name, width, height, horizon, first.start, tuple(sensors), step, channel, blocked, first.end,
                     first.max_moves, fleet)
-
-
-_ROBOT_FIELDS = frozenset({"start", "end", "max_moves"})
-
-
-def _check_robots(ck: _Checker, d: dict, width, height, step, area_ok: bool) -> list[tuple[str, Robot]]:
-    """The robots as (path prefix, Robot): the top-level start, end and max_moves of one robot,
-    or the ``robots`` list of MODEL.md section 10 (distinct starts, distinct ends). A
-    one-entry list is the same instance as the flat form. Empty (with failures) when invalid."""
-    if "robots" not in d:
-        entries = [("", d)]
-    else:
-        for key in ("end", "max_moves"):
-            if key in d:
-                ck.fail(key, f"must not be given at the top level with robots (give it per robot), got {show(d[key])}")
-        raw = d["robots"]
-        if not isinstance(raw, list) or not raw or len(raw) > MAX_ROBOTS:
-            ck.fail("robots", f"must be a list of 1 to {MAX_ROBOTS} robots {{start, end?, max_moves?}}, got {show(raw)}")
-            return []
-        entries = []
-        for k, r in enumerate(raw):
-            if ck.obj(r, f"robots[{k}]", _ROBOT_FIELDS, {"start"}) is not None and "start" in r:
-                entries.append((f"robots[{k}]", r))
-    out = []
-    for path, r in entries:
-        start = _lattice_point(ck, r, "start", path, width, height, step, area_ok) if "start" in r else None
-        end = _lattice_point(ck, r, "end", path, width, height, step, area_ok) if "end" in r else None
-        max_moves = ck.integer(r, "max_moves", path, None, 0)
-        if start is not None and ("end" not in r or end is not None) and ("max_moves" not in r or max_moves is not None):
-            out.append((path, Robot(start, end, max_moves)))
-    for key, what in (("start", "slot 0"), ("end", "the last slot")):
-        seen: dict[tuple[float, float], str] = {}
-        for path, r in out:
-            p = getattr(r, key)
-            if p is None:
-                continue
-            if p in seen:
-                ck.fail(_join(path, key), f"{_xy(p)} is also {seen[p]}.{key}: two robots may never share a lattice "
-                                          f"point, so no plan could place both there in {what}")
-            seen[p] = path
-    return out if len(out) == len(entries) else []
-
-
-def _xy(p: tuple[float, float]) -> str:
-    """A point as a message shows it: [4, 4], [0.5, 1]."""
-    return f"[{p[0]:g}, {p[1]:g}]"
-
-
-def _lattice_point(ck: _Checker, d: dict, key: str, path: str, width, height, step, area_ok: bool,
-                   what: str | None = None) -> tuple[float, float] | None:
-    """A lattice point inside the area (snapped to the lattice), or None and a failure."""
-    where = what or _join(path, key)
-    point = ck.point(d, key, path, where)
-    if point is None or not area_ok:
-        return None
-    x, y = point
-    if not (-LATTICE_TOL <= x <= width + LATTICE_TOL and -LATTICE_TOL <= y <= height + LATTICE_TOL):
-        return ck.fail(where, f"must lie in the area [0, {width:g}] x [0, {height:g}], got {show(list(point))}")
-    if not (on_lattice(x, step) and on_lattice(y, step)):
-        return ck.fail(where, f"must be a lattice point (multiples of step {step:g}), got {show(list(point))}")
-    return (round(x / step) * step, round(y / step) * step)
-
-
-def _check_blocked(ck: _Checker, raw: Any, width, height, step, area_ok: bool,
-                   n_points: int | None) -> tuple[tuple[float, float], ...]:
-    """MODEL.md section 9: a list of distinct lattice points inside the area."""
-    if not isinstance(raw, list):
-        ck.fail("blocked", f"must be a list of lattice points [x, y], got {show(raw)}")
-        return ()
-    if n_points is not None and len(raw) >= n_points:
-        ck.fail("blocked", f"must leave some of the {n_points} lattice points free, got {len(raw)} blocked points")
-        return ()
-    fast = _blocked_at_once(raw, width, height, step) if area_ok else None
-    if fast is not None:
-        return fast
-    out, seen = [], {}  # one by one, for the messages
-    for j, v in enumerate(raw):
-        p = _lattice_point(ck, {"p": v}, "p", "", width, height, step, area_ok, what=f"blocked[{j}]")
-        if p is None:
-            continue
-        key = (round(p[0] / step), round(p[1] / step))
-        if key in seen:
-            ck.fail(f"blocked[{j}]", f"{_xy(p)} is listed twice (also blocked[{seen[key]}])")
-            continue
-        seen[key] = j
-        out.append(p)
-    return tuple(out)
-
-
-def _blocked_at_once(raw: list, width: float, height: float, step: float) -> tuple[tuple[float, float], ...] | None:
-    """The blocked points checked as one array (a list of 10**5 points in a fraction of a
-    second), or None when any entry breaks a rule: then the one-by-one check names it."""
-    if not all(type(p) is list and len(p) == 2 and type(p[0]) in (int, float) and type(p[1]) in (int, float)
-               for p in raw):
-        return None
-    try:
-        arr = np.array(raw, dtype=float).reshape(-1, 2)
-    except (OverflowError, ValueError):
-        return None
-    if not np.isfinite(arr).all():
-        return None
-    x, y = arr[:, 0], arr[:, 1]
-    if not ((x >= -LATTICE_TOL) & (x <= width + LATTICE_TOL) & (y >= -LATTICE_TOL) & (y <= height + LATTICE_TOL)).all():
-        return None
-    k = np.rint(arr / step)
-    if not (np.abs(k * step - arr) <= LATTICE_TOL).all():
-        return None
-    ny = lattice_shape(width, height, step)[1]
-    keys = k[:, 0].astype(np.int64) * ny + k[:, 1].astype(np.int64)
-    ordered = np.sort(keys)
-    if (ordered[1:] == ordered[:-1]).any():
-        return None
-    return tuple(map(tuple, (k * step).tolist()))
-
-
-def _check_route(ck: _Checker, width, height, step, horizon, start, end, blocked, max_moves, path: str = "") -> None:
-    """Start and end are free, and some legal plan exists: ``end`` is within reach of start
-    in at most T - 1 moves and max_moves, around the blocked points (a BFS, _grid.steps)."""
-    from voiopt import _grid
-
-    nx, ny = lattice_shape(width, height, step)
-    k = np.rint(np.array(blocked, dtype=float).reshape(-1, 2) / step).astype(np.int64)
-    keys = k[:, 0] * ny + k[:, 1]
-    mask = np.zeros(nx * ny, dtype=bool)
-    mask[keys] = True
-    for name, p in (("start", start), ("end", end)):
-        if p is not None:
-            for j in np.flatnonzero(keys == point_index(p, step, ny)).tolist():
-                what = f"the {name} point" if not path else f"{path}.{name}"
-                ck.fail(f"blocked[{j}]", f"{_xy(blocked[j])} is {what}, which must stay free")
-    if ck.errors or end is None:
-        return
-    moves = _grid.steps(nx, ny, mask, point_index(start, step, ny))[point_index(end, step, ny)]
-    allowed = horizon - 1 if max_moves is None else min(horizon - 1, max_moves)
-    why = f"horizon {horizon} allows {horizon - 1}" if allowed == horizon - 1 else f"max_moves is {max_moves}"
-    around = " around the blocked points" if blocked else ""
-    if moves >= _grid.UNREACHABLE:
-        ck.fail(_join(path, "end"), f"{_xy(end)} is not reachable from start {_xy(start)}: the blocked points wall it off")
-    elif moves > allowed:
-        ck.fail(_join(path, "end"), f"{_xy(end)} is not reachable within {allowed} moves ({why}): it is {moves} moves "
-                       f"from start {_xy(start)}{around}")
 
 
 def _raise(ck: _Checker, source: str) -> None:
