@@ -107,9 +107,31 @@ def fleet_instances(count: int = 12, seed: int = 4242) -> list[voiopt.Instance]:
             inst = voiopt.instance.from_dict(d)
         except voiopt.errors.InstanceError:
             continue
-        if oracle.count_legal_plans(d):  # ends that only a swap could reach admit no plan at all
+        if 0 < oracle.count_legal_plans(d) <= 10_000:  # none: ends that only a swap could reach
             out.append(inst)
     return out
+
+
+_FLEET_OPTIMA: dict[str, dict[str, float]] = {}
+
+
+def oracle_optima(inst: voiopt.Instance) -> dict[str, float]:
+    """The oracle's optimum of every objective, from one enumeration of the legal plans
+    (cached for the session: several test modules ask for the same tiny instances)."""
+    import json
+
+    from oracles import model_oracle as oracle
+
+    d = inst.to_dict()
+    key = json.dumps(d, sort_keys=True)
+    if key not in _FLEET_OPTIMA:
+        best: dict[str, float] = {}
+        for plan in oracle.legal_plans(d):
+            for ob, v in oracle.simulate(d, plan).items():
+                if ob not in best or (v > best[ob] if oracle.OBJECTIVES[ob] else v < best[ob]):
+                    best[ob] = v
+        _FLEET_OPTIMA[key] = best
+    return _FLEET_OPTIMA[key]
 
 
 def solve_model_file(model, solution=None):

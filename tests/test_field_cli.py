@@ -84,7 +84,7 @@ def test_generate_command_with_fields(capsys, tmp_path):
     (["generate", "--end", "9,9"], "voiopt: error: end: must lie in the area [0, 5] x [0, 5], got [9.0, 9.0]"),
     (["generate", "--preset", "factory", "--rho", "0.1", "0.2"],
      "voiopt: error: --rho: the factory preset fixes the floor, racks, dock and sensors; it takes --sensors, "
-     "--horizon and --max-moves"),
+     "--horizon, --max-moves and --robots"),
     (["generate", "--max-moves", "-1"], "voiopt: error: max-moves: must be an integer >= 0, got -1"),
 ])
 def test_generate_errors_are_one_line(capsys, argv, message):

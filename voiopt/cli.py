@@ -95,19 +95,21 @@ def _generate_options(args) -> dict:
     if args.preset == "factory":
         given = [flag for flag, v in (("--width", args.width), ("--height", args.height), ("--step", args.step),
                                       ("--rho", args.rho), ("--power", args.power), ("--initial-aoi", args.initial_aoi),
-                                      ("--blocked-fraction", args.blocked_fraction), ("--end", args.end))
+                                      ("--blocked-fraction", args.blocked_fraction), ("--end", args.end), ("--dock", args.dock or None))
                  if v is not None]
         if given:
             raise OptionError(f"{given[0]}: the factory preset fixes the floor, racks, dock and sensors; it takes "
-                              "--sensors, --horizon and --max-moves")
+                              "--sensors, --horizon, --max-moves and --robots")
         return dict(n_sensors=args.sensors, horizon=args.horizon or fields.FACTORY_HORIZON,
-                    max_moves=fields.FACTORY_MAX_MOVES if args.max_moves is None else args.max_moves)
+                    max_moves=fields.FACTORY_MAX_MOVES if args.max_moves is None else args.max_moves,
+                    robots=args.robots)
     pick = lambda v, default: default if v is None else v  # noqa: E731
     return dict(
         n_sensors=pick(args.sensors, 4), horizon=pick(args.horizon, 30), width=pick(args.width, 5.0),
         height=pick(args.height, 5.0), step=pick(args.step, 1.0), rho=tuple(pick(args.rho, [0.0, 1.0])),
         power_w=pick(args.power, 1.0), initial_aoi=tuple(pick(args.initial_aoi, [1, 1])),
         blocked_fraction=pick(args.blocked_fraction, 0.0), end=end, max_moves=args.max_moves,
+        robots=args.robots, dock=args.dock,
     )
 
 
@@ -286,6 +288,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the point of the last slot: the start, a random reachable point, or X,Y (default: none)")
     s.add_argument("--max-moves", type=int, default=None, metavar="K",
                    help="at most K slots with a move (default: no budget)")
+    s.add_argument("--robots", type=int, default=1, metavar="K",
+                   help="K robots (MODEL.md section 10) with distinct starts (default 1); the factory preset puts "
+                        "them at the free points nearest the dock")
+    s.add_argument("--dock", action="store_true",
+                   help="with --robots: start the robots at the free points nearest robot 0's start")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--count", type=int, default=1)
     s.add_argument("--name", default=None, help="name prefix of the instances")

@@ -15,7 +15,15 @@ import numpy as np
 from voiopt import _grid
 from voiopt import instance as instance_mod
 from voiopt.errors import OptionError
-from voiopt.instance import LATTICE_TOL, Channel, Instance, Sensor, lattice_shape, point_index
+from voiopt.instance import (
+    LATTICE_TOL,
+    Channel,
+    Instance,
+    Robot,
+    Sensor,
+    lattice_shape,
+    point_index,
+)
 
 END_CHOICES = ("start", "random")
 MAX_OBSTACLE_POINTS = 10_000  # obstacles are placed one by one with a connectivity check each
@@ -74,6 +82,53 @@ def draw(inst: Instance, rng: np.random.Generator, blocked_fraction: float, end,
     return dataclasses.replace(inst, blocked=points, end=end_point, max_moves=max_moves)
 
 
+def add_robots(inst: Instance, rng: np.random.Generator, robots: int, dock: bool, end=None) -> Instance:
+    """``inst`` (one robot) with ``robots`` robots in all (MODEL.md section 10), drawn after
+    everything else so that robot 0 is the one-robot network's. Starts are distinct: uniform
+    on the free points, or with ``dock`` the free points nearest robot 0's start (fewest
+    moves, then index). Every robot has robot 0's budget. ``end`` as the generator took it:
+    "start" gives each robot its own start as end; "random" a free point it reaches in time
+    and budget, distinct from the others' ends; a point, the free points nearest it."""
+    if isinstance(robots, bool) or not isinstance(robots, int) or robots < 1:
+        raise OptionError(f"robots: must be an integer >= 1, got {robots!r}")
+    if robots == 1:
+        return inst
+    nx, ny = lattice_shape(inst.width, inst.height, inst.step)
+    blocked = np.zeros(nx * ny, dtype=bool)
+    for b in inst.blocked:
+        blocked[point_index(b, inst.step, ny)] = True
+    free = np.flatnonzero(~blocked)
+    if robots > min(len(free), instance_mod.MAX_ROBOTS):
+        raise OptionError(f"robots: must be at most {min(len(free), instance_mod.MAX_ROBOTS)} (one free lattice "
+                          f"point each), got {robots}")
+    first = point_index(inst.start, inst.step, ny)
+    if dock:
+        starts = _nearest(nx, ny, blocked, first, robots)
+    else:
+        starts = [first, *rng.choice(free[free != first], robots - 1, replace=False).tolist()]
+    ends: list = [None] * robots
+    if end == "start":
+        ends = starts
+    elif end == "random":
+        ends = [point_index(inst.end, inst.step, ny)]
+        budget = inst.horizon - 1 if inst.max_moves is None else min(inst.horizon - 1, inst.max_moves)
+        for k in starts[1:]:
+            reach = [int(q) for q in np.flatnonzero(_grid.steps(nx, ny, blocked, k) <= budget) if q not in ends]
+            ends.append(reach[int(rng.integers(len(reach)))] if reach else k)
+    elif end is not None:
+        ends = _nearest(nx, ny, blocked, point_index(inst.end, inst.step, ny), robots)
+    fleet = tuple(Robot(_point(a, inst.step, ny), None if b is None else _point(b, inst.step, ny), inst.max_moves)
+                  for a, b in zip(starts, ends, strict=True))
+    return dataclasses.replace(inst, start=fleet[0].start, end=fleet[0].end, fleet=fleet)
+
+
+def _nearest(nx: int, ny: int, blocked: np.ndarray, origin: int, count: int) -> list[int]:
+    """The ``count`` free points nearest ``origin`` in moves (then index), ``origin`` first."""
+    steps = _grid.steps(nx, ny, blocked, origin)
+    order = np.lexsort((np.arange(nx * ny), steps))
+    return [int(q) for q in order[:count] if steps[q] < _grid.UNREACHABLE]
+
+
 def _connected_obstacles(nx: int, ny: int, count: int, keep: set[int], rng: np.random.Generator) -> np.ndarray:
     """``count`` blocked points in random order, each skipped if it would cut the free points
     apart (a BFS from a kept point must still reach every free one)."""
@@ -118,11 +173,12 @@ def factory_blocked(size: int = int(FACTORY_SIZE)) -> list[tuple[int, int]]:
 
 def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, seed: int | np.random.SeedSequence = 0,
             max_moves: int | None = FACTORY_MAX_MOVES, rho: tuple[float, float] = FACTORY_RHO,
-            channel: Channel | None = None, name: str | None = None) -> Instance:
+            channel: Channel | None = None, name: str | None = None, robots: int = 1) -> Instance:
     """The factory-floor preset: a 20 x 20 m floor with racks of shelving (``factory_blocked``),
     the dock at the corner (0, 0) as start and end, ``n_sensors`` (default: uniform in 10..30)
     on machines and shelves, each within d_th of an aisle point, rho ~ U(0.6, 0.99), T = 100 and
-    a budget of 80 moves."""
+    a budget of 80 moves. With ``robots`` K > 1, the K robots start and end at the free points
+    nearest the dock (MODEL.md section 10: no two share a point)."""
     if n_sensors is not None and (isinstance(n_sensors, bool) or not isinstance(n_sensors, int) or n_sensors < 1):
         raise OptionError(f"sensors: must be an integer >= 1, got {n_sensors!r}")
     if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 1:
@@ -146,4 +202,5 @@ def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, see
     dock = (0.0, 0.0)
     inst = Instance(name, FACTORY_SIZE, FACTORY_SIZE, horizon, dock, tuple(sensors), 1.0, channel,
                     tuple((float(x), float(y)) for x, y in blocked), dock, max_moves)
+    inst = add_robots(inst, rng, robots, dock=True, end="start")
     return instance_mod.from_dict(inst.to_dict())

@@ -31,6 +31,8 @@ def generate(
     blocked_fraction: float = 0.0,
     end: str | tuple[float, float] | None = None,
     max_moves: int | None = None,
+    robots: int = 1,
+    dock: bool = False,
 ) -> Instance:
     """One random network: sensors uniform in the area, start uniform on the lattice,
     rho ~ U(rho[0], rho[1]) (redrawn in the rare case it hits 0 or 1), initial AoI uniform
@@ -39,7 +41,9 @@ def generate(
     The field rules of MODEL.md section 9, drawn after everything else (so the paper's
     networks do not change): ``blocked_fraction`` of the lattice points blocked at random,
     never the start or end and never cutting the free points apart; ``end`` "start", "random"
-    (a free point the entity can reach in time and budget) or a point (x, y); ``max_moves``."""
+    (a free point the entity can reach in time and budget) or a point (x, y); ``max_moves``.
+    ``robots`` K > 1 (MODEL.md section 10) adds robots 1..K-1 after that (fields.add_robots):
+    distinct starts, uniform or with ``dock`` around robot 0's start, and ends by ``end``."""
     _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi)
     fields.check_options(blocked_fraction, end, max_moves, horizon)
     rng = np.random.default_rng(seed)
@@ -61,6 +65,8 @@ def generate(
     inst = Instance(name, float(width), float(height), int(horizon), start, tuple(sensors), float(step), channel)
     if blocked_fraction or end is not None or max_moves is not None:
         inst = fields.draw(inst, rng, blocked_fraction, end, max_moves)
+    if robots != 1 or dock:
+        inst = fields.add_robots(inst, rng, robots, dock, end)
     return instance_mod.from_dict(inst.to_dict())  # validated like any file
 
 

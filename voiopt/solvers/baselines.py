@@ -20,6 +20,7 @@ from voiopt.objectives import check_objective
 from voiopt.plan import Plan
 from voiopt.result import Result
 from voiopt.simulate import advance
+from voiopt.solvers import fleet_baselines
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     check_limits,
@@ -77,6 +78,15 @@ class _Slot:
             scores = [tuple(np.sort(row)) for row in np.atleast_2d(v)]
         return [(u, A[r], Q[r], scores[r]) for r, u in enumerate(us)]
 
+    def voi(self, aoi: np.ndarray, dist: np.ndarray) -> np.ndarray:
+        return physics.voi(aoi, dist, self.rho, self.power, self.inst.channel)
+
+    def score(self, aoi: np.ndarray, dist: np.ndarray) -> tuple:
+        """The score ``step`` gives one next state (A, q)."""
+        if self.aoi_objective:
+            return tuple(-np.sort(aoi)[::-1])
+        return tuple(np.sort(self.voi(aoi, dist)))
+
     def bottleneck(self, aoi: np.ndarray, dist: np.ndarray, reachable: np.ndarray) -> int:
         """The worst sensor (lowest VoI, or largest AoI) among those that can ever be served."""
         if self.aoi_objective:
@@ -101,6 +111,9 @@ def greedy(instance: Instance, objective: str, *, progress: bool = False, time_l
     N, n = instance.n_sensors, lattice_mod.n_points(instance)
     require_memory(lattice_bytes(instance) + 8.0 * N * n + 16.0 * (N + 1) * N, memory_limit, "greedy's tables")
     with watch(time_limit, memory_limit) as stop:
+        if instance.fleet:
+            slot = _Slot(instance, _is_aoi(objective))
+            return fleet_baselines.greedy(instance, objective, stop, slot, _steps_to_sensor(instance))
         return _greedy(instance, objective, stop)
 
 
@@ -205,16 +218,17 @@ class _Moves:
 HEURISTIC_TOUR_MAX_SENSORS = 200  # simulated annealing up to here; nearest neighbour above
 
 
-def _tour(instance: Instance, stop: Stop, seed: int) -> tuple[list[int], dict]:
-    """Waypoints (one in-range point per servable sensor) of a shortest closed walk from start.
-    Stopped early, the sensors' index order is the tour."""
+def _tour(instance: Instance, stop: Stop, seed: int, sensors: list[int] | None = None) -> tuple[list[int], dict]:
+    """Waypoints (one in-range point per servable sensor, of ``sensors`` if given) of a shortest
+    closed walk from start. Stopped early, the sensors' index order is the tour."""
     lat = lattice_mod.build(instance)
     start = lat.start
     reach = lat.from_start < lattice_mod.UNREACHABLE  # not walled off by blocked points
-    servable = [i for i in range(instance.n_sensors) if (lat.in_range[i] & reach).any()]
+    among = range(instance.n_sensors) if sensors is None else sensors
+    servable = [i for i in among if (lat.in_range[i] & reach).any()]
     candidates = {i: np.flatnonzero(lat.in_range[i] & reach).tolist() for i in servable}
     dist = _Moves(lat)
-    info = {"unservable_sensors": [i for i in range(instance.n_sensors) if i not in servable]}
+    info = {"unservable_sensors": [i for i in among if i not in servable]}
     if len(servable) <= EXACT_TOUR_MAX_SENSORS:
         best = (math.inf, [])
         for order in itertools.permutations(servable):
@@ -289,17 +303,29 @@ def shortest_path(instance: Instance, objective: str, *, progress: bool = False,
     n = lattice_mod.n_points(instance)
     require_memory(lattice_bytes(instance) + 1000.0 * n, memory_limit, "shortest-path's lattice graph and tables")
     with watch(time_limit, memory_limit) as stop:
+        if instance.fleet:
+            def tour(robot: Instance, sensors: list[int]):
+                waypoints, info = _tour(robot, stop, int(seed), sensors)
+                return closed_walk(robot, waypoints), info
+            return fleet_baselines.shortest_path(instance, objective, stop, int(seed), tour)
         return _shortest_path(instance, objective, stop, int(seed))
+
+
+def closed_walk(instance: Instance, waypoints: list[int]) -> list[int]:
+    """The lattice points of the closed walk start -> waypoints -> start, along shortest paths,
+    without the final return to start (it is the cycle's first point)."""
+    lat = lattice_mod.build(instance)
+    g = _lattice_graph(instance)
+    walk = [lat.start]
+    for q in [*waypoints, lat.start]:
+        walk.extend(nx.shortest_path(g, walk[-1], q)[1:])
+    return walk[:-1] if len(walk) > 1 else walk
 
 
 def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) -> Result:
     lat = lattice_mod.build(instance)
-    g = _lattice_graph(instance)
     waypoints, info = _tour(instance, stop, seed)
-    walk = [lat.start]
-    for q in [*waypoints, lat.start]:
-        walk.extend(nx.shortest_path(g, walk[-1], q)[1:])
-    cycle = walk[:-1] if len(walk) > 1 else walk  # closed: the last point is the start again
+    cycle = closed_walk(instance, waypoints)
     positions = [lat.start]
     used, home = 0, False
     for t in range(1, instance.horizon):  # the cycle while it leaves a way to end in time and budget

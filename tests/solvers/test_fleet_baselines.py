@@ -1,0 +1,114 @@
+"""shortest-path and greedy for several robots (MODEL.md section 10): legal, conflict-free plans
+(checked by the independent oracle), never better than the oracle's optimum, deterministic,
+and stopped by the usual limits. The generator's ``robots`` and ``dock`` options too."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import fleet_instances, oracle_optima
+from oracles import model_oracle as oracle
+
+import voiopt
+from voiopt import fields
+from voiopt.cli import main
+from voiopt.instance import from_dict
+from voiopt.solvers import fleet_baselines
+
+CASES = fleet_instances()
+METHODS = ("shortest-path", "greedy")
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_tiny_fleets_get_legal_plans_no_better_than_the_optimum(method):
+    for inst in CASES:
+        d = inst.to_dict()
+        for ob, maximise in oracle.OBJECTIVES.items():
+            r = voiopt.solve(inst, method, ob)
+            assert r.status == "feasible", (inst.name, r.solver)
+            assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())[ob], rel=1e-12)
+            best = oracle_optima(inst)[ob]
+            assert (r.value <= best * (1 + 1e-12)) if maximise else (r.value >= best)
+
+
+def test_greedy_reaches_the_optimum_on_most_tiny_fleets():
+    """A real check of the joint upload choice: greedy's mean-min-voi is optimal on most cases."""
+    hits = sum(voiopt.solve(i, "greedy").value == pytest.approx(oracle_optima(i)["mean-min-voi"], rel=1e-9)
+               for i in CASES)
+    assert hits >= 9, hits
+
+
+def _corridor(ends):
+    d = {"area": {"width": 3, "height": 0.5}, "horizon": 6, "channel": {"d_th": 1.0},
+         "robots": [{"start": [0, 0], "end": ends[0]}, {"start": [3, 0], "end": ends[1]}],
+         "sensors": [{"position": [1, 0], "rho": 0.6}, {"position": [2, 0], "rho": 0.9}]}
+    return d
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_corridor_makes_robots_give_way(method):
+    """Robots that want each other's side of a corridor must never share a point or swap: with
+    ends side by side it works out; with ends swapped no legal plan exists at all."""
+    d = _corridor([[1, 0], [2, 0]])
+    r = voiopt.solve(from_dict(d), method)
+    assert r.status == "feasible"
+    oracle.simulate(d, r.plan.to_dict())
+    swapped = _corridor([[3, 0], [0, 0]])
+    assert oracle.count_legal_plans(swapped) == 0
+    r = voiopt.solve(from_dict(swapped), method)
+    assert r.status == "infeasible" and r.plan is None and "no conflict-free joint plan" in r.solver["note"]
+
+
+@pytest.mark.parametrize("kw", [dict(robots=2), dict(robots=3, dock=True, end="start"),
+                                dict(robots=2, end="random", max_moves=12, blocked_fraction=0.2)])
+def test_larger_fleets_are_legal_and_deterministic(kw):
+    inst = voiopt.generate(8, 30, seed=11, **kw)
+    d = inst.to_dict()
+    for method in METHODS:
+        for ob in ("mean-min-voi", "max-aoi"):
+            a, b = voiopt.solve(inst, method, ob), voiopt.solve(inst, method, ob)
+            assert a.plan == b.plan and a.status == "feasible"
+            assert a.value == pytest.approx(oracle.simulate(d, a.plan.to_dict())[ob], rel=1e-12)
+
+
+def test_greedy_with_two_robots_beats_one_on_average():
+    """The second robot is used: over a few networks, two robots' greedy plan is better."""
+    one = [voiopt.solve(voiopt.generate(10, 30, seed=s), "greedy").value for s in range(4)]
+    two = [voiopt.solve(voiopt.generate(10, 30, seed=s, robots=2), "greedy").value for s in range(4)]
+    assert np.mean(two) > np.mean(one)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_stopped_fleet_heuristic_still_ends_legally(method):
+    inst = fields.factory(20, seed=3, robots=3)
+    r = voiopt.solve(inst, method, time_limit=0.02)
+    assert r.status == "time_limit" and "head for their ends" in r.solver["stopped"]
+    assert voiopt.evaluate(inst, r.plan)[r.objective] == r.value
+
+
+def test_clusters_are_balanced_and_cover_every_sensor():
+    inst = voiopt.generate(11, 10, seed=2, robots=3)
+    groups = fleet_baselines.clusters(inst, list(range(11)))
+    assert sorted(i for g in groups for i in g) == list(range(11))
+    assert max(map(len, groups)) <= 4
+
+
+def test_generator_robots_and_dock(tmp_path):
+    one = voiopt.generate(6, 20, seed=5)
+    two = voiopt.generate(6, 20, seed=5, robots=2)
+    assert two.fleet[0].start == one.start and two.sensors == one.sensors  # robot 0 is the one-robot network's
+    docked = voiopt.generate(6, 20, seed=5, robots=3, dock=True, end="start")
+    starts = [r.start for r in docked.fleet]
+    assert len(set(starts)) == 3 and all(r.end == r.start for r in docked.fleet)
+    assert max(abs(a - b) + abs(c - e) for (a, c) in starts for (b, e) in starts) <= 2  # around the dock
+    factory = fields.factory(12, seed=1, robots=2)
+    assert [r.start for r in factory.fleet] == [(0.0, 0.0), (0.0, 1.0)]
+    assert main(["generate", "--sensors", "5", "--robots", "2", "--dock", "--end", "start", "--out", str(tmp_path)]) == 0
+    path = next(tmp_path.glob("*.json"))
+    assert len(json.loads(path.read_text())["robots"]) == 2
+    assert main(["solve", str(path), "--method", "greedy", "-o", str(tmp_path / "r.json")]) == 0
+    assert main(["evaluate", str(path), str(tmp_path / "r.json")]) == 0
+    assert main(["generate", "--robots", "0"]) == 2
+    assert main(["solve", str(path), "--method", "beam"]) == 2

@@ -1,0 +1,314 @@
+"""The paper's comparison schemes for several robots (MODEL.md section 10).
+
+``shortest_path`` splits the sensors among the robots (balanced clusters), gives each robot
+the one-robot shortest closed walk over its cluster, and uploads by largest AoI, jointly.
+``greedy`` chooses the joint upload that makes the next slot best, then moves each robot
+towards its own bottleneck sensor with the one-robot lookahead.
+
+Both execute slot by slot through one conflict-free walker, ``_walk``: a depth-first search over
+the robots' next points in each one's order of preference, which skips shared points, swaps
+and points from which a robot's own end (section 9) is out of reach, and backtracks when a
+slot has no legal joint move. Neither reports a value of its own.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Iterator
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from voiopt import lattice as lattice_mod
+from voiopt.instance import Instance
+from voiopt.plan import Plan
+from voiopt.result import Result
+from voiopt.simulate import advance
+from voiopt.stop import Stop
+
+MAX_JOINT_UPLOADS = 4096  # joint upload choices scored exhaustively per slot; above, robot by robot
+MAX_TRIES = 200_000  # joint moves the walker may try before it gives up
+
+
+class NoJointPlan(Exception):
+    """The walker found no conflict-free way through the horizon within MAX_TRIES."""
+
+
+def _lattices(instance: Instance) -> list[lattice_mod.Lattice]:
+    return [lattice_mod.build(instance.robot(k)) for k in range(instance.n_robots)]
+
+
+def _joint_options(lats, cur: tuple[int, ...], used: tuple[int, ...], t: int,
+                   prefer: Callable[[int, list[int]], list[int]]) -> Iterator[tuple[int, ...]]:
+    """The joint next points for slot t + 1 in lexicographic order of the robots' preferences
+    (robot 0's first), legal by MODEL.md sections 9 and 10."""
+    K = len(cur)
+    choices = []
+    for k, lat in enumerate(lats):
+        moves = sorted({int(q) for q in lat.neighbors[cur[k]] if q >= 0})
+        ok = [q for q in moves if lat.can_finish(q, t + 1, used[k] + (q != cur[k]))]
+        choices.append(prefer(k, ok))
+
+    def rec(k: int, chosen: tuple[int, ...]):
+        if k == K:
+            yield chosen
+            return
+        for q in choices[k]:
+            if any(q == chosen[j] or (q == cur[j] and chosen[j] == cur[k]) for j in range(k)):
+                continue  # a shared point, or a swap with robot j
+            yield from rec(k + 1, (*chosen, q))
+
+    return rec(0, ())
+
+
+def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Callable, on_move: Callable):
+    """Positions and schedule (K, T) of a conflict-free joint plan.
+
+    ``begin(t, cur, state) -> (uploads, state')``: the uploads of slot t at points ``cur``
+    (distinct sensors, -1 none) and the state after them; ``prefer(t, cur, state) -> f(k, ok)``
+    orders robot k's legal next points; ``on_move(state, cur, nxt) -> state``. ``state`` is
+    the heuristic's own (ages, distances, walk pointers; ``state0`` in slot 0), kept per slot
+    so that backtracking restores it. Once the stop rule fires, robots head for their ends without uploads."""
+    lats = _lattices(instance)
+    K, T = instance.n_robots, instance.horizon
+    cur0 = tuple(lat.start for lat in lats)
+    frames = []  # per slot t: (cur, used, uploads, state after uploads, options)
+    tries = 0
+
+    def open_frame(t, cur, used, state):
+        if stop.check():
+            uploads, after = (-1,) * K, state
+            order = _homeward(lats)
+        else:
+            uploads, after = begin(t, cur, state)
+            order = prefer(t, cur, after)
+        opts = _joint_options(lats, cur, used, t, order) if t + 1 < T else iter([None])
+        frames.append((cur, used, tuple(uploads), after, opts))
+
+    open_frame(0, cur0, (0,) * K, state0)
+    while frames:
+        t = len(frames) - 1
+        cur, used, uploads, state, opts = frames[-1]
+        nxt = next(opts, False)
+        if nxt is False:
+            frames.pop()  # no legal joint move left from here: back to the slot before
+            continue
+        if nxt is None:
+            break  # the last slot: done
+        tries += 1
+        if tries > MAX_TRIES:
+            raise NoJointPlan(f"no conflict-free joint move found after {MAX_TRIES} tries (slot {t})")
+        new_used = tuple(u + (a != b) for u, a, b in zip(used, cur, nxt, strict=True))
+        open_frame(t + 1, nxt, new_used, on_move(state, cur, nxt))
+    if not frames:
+        raise NoJointPlan("no conflict-free joint plan exists for these robots' starts, ends and budgets")
+    idx = np.array([f[0] for f in frames], dtype=np.int64).T
+    sched = np.array([f[2] for f in frames], dtype=np.int64).T
+    return idx, sched
+
+
+def _homeward(lats):
+    """Preference once stopped: fewest moves to end first, staying on ties."""
+    def order(k, ok):
+        return sorted(ok, key=lambda q: (lats[k].to_end[q], q))
+    return order
+
+
+def _result(instance, method, objective, stop, walk, solver) -> Result:
+    try:
+        idx, sched = walk()
+    except NoJointPlan as e:
+        return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
+                                solver={**solver, "note": str(e)})
+    if stop.requested:
+        solver["stopped"] = f"{stop.describe()}; the robots then head for their ends without uploads"
+    return Result.from_plan(instance, method, objective, Plan.from_indices(instance, idx, sched),
+                            status=stop.reason or "feasible", runtime_s=stop.elapsed(), solver=solver)
+
+
+# ------------------------------------------------------------------------- shortest path
+
+
+def clusters(instance: Instance, sensors: list[int], iterations: int = 20) -> list[list[int]]:
+    """Balanced clusters of the sensors, one per robot: k-means on the sensor positions with
+    every cluster holding at most ceil(N / K) sensors (an assignment problem each round),
+    seeded by farthest points; the clusters then go to the robots that reach them in the
+    fewest moves in total. Deterministic."""
+    K = instance.n_robots
+    if not sensors:
+        return [[] for _ in range(K)]
+    pos = np.array([instance.sensors[i].position for i in sensors], dtype=float)
+    k_eff = min(K, len(sensors))
+    centres = [pos[0]]
+    while len(centres) < k_eff:
+        d = np.min([np.hypot(*(pos - c).T) for c in centres], axis=0)
+        centres.append(pos[int(np.argmax(d))])
+    centres = np.array(centres)
+    cap = math.ceil(len(sensors) / k_eff)
+    label = np.zeros(len(sensors), dtype=np.int64)
+    for _ in range(iterations):
+        cost = np.hypot(pos[:, None, 0] - centres[None, :, 0], pos[:, None, 1] - centres[None, :, 1])
+        rows, cols = linear_sum_assignment(np.repeat(cost, cap, axis=1))
+        new = np.empty(len(sensors), dtype=np.int64)
+        new[rows] = cols // cap
+        if _ and (new == label).all():
+            break
+        label = new
+        centres = np.array([pos[label == c].mean(axis=0) for c in range(k_eff)])
+    lats = _lattices(instance)
+    groups = [[sensors[j] for j in np.flatnonzero(label == c)] for c in range(k_eff)] + [[]] * (K - k_eff)
+    cost = np.array([[min((int(lat.from_start[lat.in_range[i]].min()) for i in g), default=0) for g in groups]
+                     for lat in lats], dtype=float)
+    rows, cols = linear_sum_assignment(cost)
+    return [groups[c] for c in cols[np.argsort(rows)]]
+
+
+def shortest_path(instance: Instance, objective: str, stop: Stop, seed: int, tour: Callable) -> Result:
+    """The fleet form of baselines.shortest_path (see the module's docstring); ``tour(instance,
+    sensors)`` is the one-robot closed walk (lattice points) over ``sensors``, and its info."""
+    lats = _lattices(instance)
+    servable = [i for i in range(instance.n_sensors)
+                if any((lat.in_range[i] & (lat.from_start < lattice_mod.UNREACHABLE)).any() for lat in lats)]
+    groups = clusters(instance, servable)
+    cycles, info = [], {"clusters": groups, "unservable_sensors": [i for i in range(instance.n_sensors)
+                                                                   if i not in servable]}
+    for k, lat in enumerate(lats):
+        mine = [i for i in groups[k] if (lat.in_range[i] & (lat.from_start < lattice_mod.UNREACHABLE)).any()]
+        cycle, about = tour(instance.robot(k), mine)
+        cycles.append(cycle)
+        info[f"robot_{k}_tour_length"] = about["tour_length"]
+    steps_to = {}
+
+    def towards(q: int) -> np.ndarray:
+        if q not in steps_to:
+            steps_to[q] = lats[0].steps_from(q)
+        return steps_to[q]
+
+    def begin(t, cur, state):
+        aoi, pointers = state
+        uploads, taken = [], set()
+        for p in cur:  # robot by robot: the in-range sensor of largest AoI not taken this slot
+            near = [i for i in np.flatnonzero(lats[0].in_range[:, p]).tolist() if i not in taken]
+            u = max(near, key=lambda i: (aoi[i], -i)) if near else -1
+            uploads.append(u)
+            taken.add(u)
+        aoi = aoi + 1
+        for u in uploads:
+            if u >= 0:
+                aoi[u] = 1
+        return uploads, (aoi, pointers)
+
+    def prefer(t, cur, state):
+        _, pointers = state
+
+        def order(k, ok):
+            want = cycles[k][(pointers[k] + 1) % len(cycles[k])]
+            return sorted(ok, key=lambda q: (q != want, towards(want)[q], q != cur[k], q))
+        return order
+
+    def on_move(state, cur, nxt):
+        aoi, pointers = state
+        return aoi, tuple(p + 1 if nxt[k] == cycles[k][(p + 1) % len(cycles[k])] else p
+                          for k, p in enumerate(pointers))
+
+    state0 = (np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64), (0,) * instance.n_robots)
+    return _result(instance, "shortest-path", objective, stop,
+                   lambda: _walk(instance, stop, state0, begin, prefer, on_move), {**info, "seed": int(seed)})
+
+
+# ------------------------------------------------------------------------- greedy
+
+
+def greedy(instance: Instance, objective: str, stop: Stop, slot, to_sensor: np.ndarray) -> Result:
+    """The fleet form of baselines.greedy (see the module's docstring): ``slot`` is its per-slot
+    arithmetic (baselines._Slot), ``to_sensor`` the fewest moves into each sensor's range."""
+    aoi_objective = slot.aoi_objective
+    lat = slot.lat
+    reachable = np.isfinite(to_sensor).any(axis=1)
+
+    def score(a, q):
+        return slot.score(a, q)
+
+    def begin(t, cur, state):
+        aoi, dist = state
+        options = [slot.uploads(p) for p in cur]
+        best = None
+        if math.prod(map(len, options)) <= MAX_JOINT_UPLOADS:
+            joint = itertools.product(*options)
+        else:  # robot by robot, each the best given those before it
+            joint = [_sequential(options, cur, aoi, dist, lat, score)]
+        for us in joint:
+            if len({u for u in us if u >= 0}) < sum(u >= 0 for u in us):
+                continue  # a sensor uploads to at most one robot per slot
+            a, q = _advance_all(aoi, dist, us, cur, lat)
+            key = score(a, q)
+            if best is None or key > best[0]:
+                best = (key, us, a, q)
+        return best[1], (best[2], best[3])
+
+    def prefer(t, cur, state):
+        aoi, dist = state
+        worst = _bottlenecks(slot, aoi, dist, reachable, len(cur))
+        targets = _assign_targets(worst, cur, to_sensor)
+
+        def order(k, ok):
+            keys = {}
+            for q in ok:
+                look = max(s for *_, s in slot.step(aoi, dist, q))
+                steps = to_sensor[targets[k], q] if targets[k] >= 0 else 0.0
+                keys[q] = (look[0], -steps, look, q == cur[k], -q)
+            return sorted(ok, key=lambda q: keys[q], reverse=True)
+        return order
+
+    def on_move(state, cur, nxt):
+        return state
+
+    solver = {"rule": "aoi" if aoi_objective else "voi", "lookahead": 1, "uploads": "joint"}
+    state0 = (np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64),
+              np.array([instance.initial_distance(i) for i in range(instance.n_sensors)]))
+    return _result(instance, "greedy", objective, stop, lambda: _walk(instance, stop, state0, begin, prefer, on_move),
+                   solver)
+
+
+def _advance_all(aoi, dist, uploads, cur, lat):
+    a, q = advance(aoi, dist, -1, 0.0)
+    for u, p in zip(uploads, cur, strict=True):
+        if u >= 0:
+            a[u], q[u] = 1, lat.distance[u, p]
+    return a, q
+
+
+def _sequential(options, cur, aoi, dist, lat, score) -> tuple[int, ...]:
+    chosen: list[int] = []
+    for k, opts in enumerate(options):
+        best = None
+        for u in opts:
+            if u >= 0 and u in chosen:
+                continue
+            us = (*chosen, u, *([-1] * (len(options) - k - 1)))
+            key = score(*_advance_all(aoi, dist, us, cur, lat))
+            if best is None or key > best[0]:
+                best = (key, u)
+        chosen.append(best[1])
+    return tuple(chosen)
+
+
+def _bottlenecks(slot, aoi, dist, reachable, K) -> list[int]:
+    """The K worst servable sensors (lowest VoI or largest AoI), worst first."""
+    badness = aoi.astype(float) if slot.aoi_objective else -np.asarray(slot.voi(aoi, dist))
+    order = np.lexsort((np.arange(len(badness)), -np.where(reachable, badness, -np.inf)))
+    return [int(i) for i in order[:K] if reachable[i]]
+
+
+def _assign_targets(worst: list[int], cur, to_sensor) -> list[int]:
+    """Each robot's target among the worst sensors: fewest moves in total (-1: none left)."""
+    K = len(cur)
+    if not worst:
+        return [-1] * K
+    cost = np.array([[to_sensor[i, p] for i in worst] for p in cur])
+    rows, cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e9))
+    out = [-1] * K
+    for r, c in zip(rows, cols, strict=True):
+        out[r] = worst[c]
+    return out
