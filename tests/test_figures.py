@@ -40,3 +40,31 @@ def test_figures_smoke(tmp_path, capsys):
         assert all(int(r["networks"]) == 2 and r["mean"] for r in rows)
     md = (out / "figures.md").read_text()
     assert "fig7_nodes.png" in md and "proven optimum" in md
+
+
+def test_a_fleet_plot_gives_each_robot_its_colour_and_marks_its_uploads(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+
+    from voiopt.plots import ROBOT_COLOURS, draw_plan
+
+    inst = voiopt.generate(6, 12, seed=3, robots=3, dock=True, end="start", max_moves=8)
+    result = voiopt.solve(inst, "greedy")
+    fig, ax = plt.subplots()
+    draw_plan(ax, inst, result.plan)
+    paths = [line for line in ax.lines if line.get_label() in ("robot 0", "robot 1", "robot 2")]
+    assert [line.get_label() for line in paths] == ["robot 0", "robot 1", "robot 2"]
+    assert [line.get_color() for line in paths] == list(ROBOT_COLOURS[:3])
+    labels = [t.get_text() for t in ax.texts]
+    uploads = [(t, u) for r in result.plan.robots for t, u in enumerate(r.schedule) if u is not None]
+    assert uploads and all(f"t{t}:s{u}" in labels for t, u in uploads)
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert sum("max_moves 8" in t for t in legend) == 3
+    plt.close(fig)
+    result.save(tmp_path / "r.json")
+    voiopt.save(inst, tmp_path / "i.json")
+    assert main(["plot", str(tmp_path / "r.json"), "--instance", str(tmp_path / "i.json"),
+                 "-o", str(tmp_path / "r.png")]) == 0
+    assert (tmp_path / "r.png").stat().st_size > 10_000

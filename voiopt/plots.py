@@ -18,7 +18,7 @@ from voiopt.errors import OptionError
 from voiopt.generate import case_study
 from voiopt.instance import Instance
 from voiopt.objectives import DEFAULT as OBJECTIVE
-from voiopt.plan import Plan
+from voiopt.plan import FleetPlan, Plan
 from voiopt.result import Result
 from voiopt.simulate import simulate
 from voiopt.solvers import RANDOMISED
@@ -70,8 +70,12 @@ def save_figure(fig, path: str | os.PathLike) -> None:
 _ARROW = {(0, 1): "^", (0, -1): "v", (1, 0): ">", (-1, 0): "<", (0, 0): "o"}
 
 
-def draw_plan(ax, instance: Instance, plan: Plan, title: str = "") -> None:
-    """Path with direction markers (red where a sensor uploads), sensors and their ranges."""
+ROBOT_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan")
+
+
+def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -> None:
+    """Each robot's path in its own colour with direction markers (red where a sensor
+    uploads, labelled t{slot}:s{sensor}), its start, sensors and their ranges."""
     from matplotlib.patches import Circle
 
     lat = lattice_mod.build(instance)
@@ -81,40 +85,51 @@ def draw_plan(ax, instance: Instance, plan: Plan, title: str = "") -> None:
         ax.add_patch(Circle(s.position, instance.channel.d_th, fill=False, ls=":", color="tab:red", alpha=0.5))
         ax.scatter(*s.position, marker="x", s=60, color="tab:red", zorder=4)
         ax.annotate(f"s{i} (rho {s.rho:.2f})", s.position, xytext=(4, 4), textcoords="offset points", fontsize=7, color="tab:red")
-    pts = np.array(plan.positions)
-    ax.plot(pts[:, 0], pts[:, 1], color="tab:blue", lw=1.2, alpha=0.7, zorder=2)
-    ax.scatter(*pts[0], marker="s", s=70, facecolor="none", edgecolor="black", zorder=5, label="start")
-    step = instance.step
-    for t, (x, y) in enumerate(plan.positions):
-        nxt = plan.positions[t + 1] if t + 1 < len(plan.positions) else (x, y)
-        move = (round((nxt[0] - x) / step), round((nxt[1] - y) / step))
-        u = plan.schedule[t]
-        ax.scatter(x, y, marker=_ARROW.get(move, "o"), s=45, color="tab:red" if u is not None else "tab:blue", zorder=3)
-        if u is not None:
-            ax.annotate(f"t{t}:s{u}", (x, y), xytext=(-6, -11), textcoords="offset points", fontsize=6)
+    fleet = len(plan.robots) > 1
+    for k, robot in enumerate(plan.robots):
+        colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
+        pts = np.array(robot.positions)
+        ax.plot(pts[:, 0], pts[:, 1], color=colour, lw=1.2, alpha=0.7, zorder=2, label=f"robot {k}" if fleet else None)
+        ax.scatter(*pts[0], marker="s", s=70, facecolor="none", edgecolor="black" if not fleet else colour, zorder=5,
+                   label="start" if k == 0 and not fleet else None)
+        step = instance.step
+        for t, (x, y) in enumerate(robot.positions):
+            nxt = robot.positions[t + 1] if t + 1 < len(robot.positions) else (x, y)
+            move = (round((nxt[0] - x) / step), round((nxt[1] - y) / step))
+            u = robot.schedule[t]
+            ax.scatter(x, y, marker=_ARROW.get(move, "o"), s=45, color="tab:red" if u is not None else colour,
+                       edgecolor=colour if fleet else None, linewidths=1.2 if fleet else None, zorder=3)
+            if u is not None:
+                ax.annotate(f"t{t}:s{u}", (x, y), xytext=(-6, -11), textcoords="offset points", fontsize=6,
+                            color=colour if fleet else None)
     ax.set_xlim(-0.4, instance.width + 0.4)
     ax.set_ylim(-0.4, instance.height + 0.4)
     ax.set_aspect("equal")
     ax.set_title(title, fontsize=9)
+    if fleet or instance.has_field_rules:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=2, fontsize=7, frameon=False)
 
 
-def _draw_field_rules(ax, instance: Instance, plan: Plan) -> None:
-    """MODEL.md section 9: blocked points as filled squares, the end point (the dock) marked,
-    and the budget with the moves the plan makes in the legend."""
+def _draw_field_rules(ax, instance: Instance, plan: Plan | FleetPlan) -> None:
+    """MODEL.md section 9: blocked points as filled squares, each end point (a dock) marked,
+    and each budget with the moves the plan makes in the legend."""
     from matplotlib.patches import Rectangle
 
     step = instance.step
     for k, (x, y) in enumerate(instance.blocked):
         ax.add_patch(Rectangle((x - step / 2, y - step / 2), step, step, color="0.35", zorder=0,
                                label="blocked" if k == 0 else None))
-    if instance.end is not None:
-        ax.scatter(*instance.end, marker="D", s=110, facecolor="none", edgecolor="tab:green", lw=1.6, zorder=5,
-                   label="end (dock)")
-    if instance.max_moves is not None:
-        moves = sum(a != b for a, b in zip(plan.positions, plan.positions[1:], strict=False))
-        ax.plot([], [], " ", label=f"moves {moves} of max_moves {instance.max_moves} ({instance.max_moves - moves} left)")
-    if instance.has_field_rules:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=2, fontsize=7, frameon=False)
+    fleet = len(plan.robots) > 1
+    for k, (robot, spec) in enumerate(zip(plan.robots, instance.robots, strict=False)):
+        who = f"robot {k} " if fleet else ""
+        colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)] if fleet else "tab:green"
+        if spec.end is not None:
+            ax.scatter(*spec.end, marker="D", s=110, facecolor="none", edgecolor=colour, lw=1.6, zorder=5,
+                       label=f"{who}end (dock)")
+        if spec.max_moves is not None:
+            moves = sum(a != b for a, b in zip(robot.positions, robot.positions[1:], strict=False))
+            ax.plot([], [], " ", label=f"{who}moves {moves} of max_moves {spec.max_moves} "
+                                       f"({spec.max_moves - moves} left)")
 
 
 def plot_result(result: Result, instance: Instance, path: str | os.PathLike) -> None:
@@ -122,7 +137,7 @@ def plot_result(result: Result, instance: Instance, path: str | os.PathLike) -> 
     if result.plan is None:
         raise OptionError(f"RESULT: the result has no plan (status {result.status})")
     metrics = simulate(instance, result.plan).metrics  # re-simulated: the file is not trusted
-    fig, ax = start_figure(figsize=(5.2, 5.2))
+    fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
     title = f"{instance.name} — {result.method}, {result.objective} = {metrics[result.objective]:.4g} ({result.status})"
     draw_plan(ax, instance, result.plan, title)
     save_figure(fig, path)
