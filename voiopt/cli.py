@@ -71,9 +71,9 @@ def cmd_validate(args) -> int:
             bad += 1
             continue
         never = lattice.unservable_sensors(inst)
-        note = ""
+        note = f" ({inst.n_robots} robots)" if inst.fleet else ""
         if never:
-            note = f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
+            note += f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
         out.print(f"{path}: ok{note}" if len(args.instances) > 1 else f"ok{note}", markup=False)
     return 2 if bad else 0
 
