@@ -6,7 +6,7 @@ import csv
 
 import voiopt
 from voiopt.cli import main
-from voiopt.experiments.paper import SWEEPS
+from voiopt.experiments.paper import ROBOT_METHODS, ROBOTS, SWEEPS
 from voiopt.plots import SCHEMES
 
 
@@ -40,6 +40,12 @@ def test_figures_smoke(tmp_path, capsys):
         assert all(int(r["networks"]) == 2 and r["mean"] for r in rows)
     md = (out / "figures.md").read_text()
     assert "fig7_nodes.png" in md and "proven optimum" in md
+    with open(out / "fig8_robots.csv") as f:  # several robots: the optimum and every method per K
+        rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
+    assert [int(r["x"]) for r in rows] == [k for k in ROBOTS.values for _ in range(1 + len(ROBOT_METHODS))]
+    for r in rows:  # every fleet method plans for 2 and 3 robots here (none declines)
+        assert r["mean"], r
+    assert (out / "fig8_robots.png").stat().st_size > 5000 and "fig8_robots.png" in md
 
 
 def test_a_fleet_plot_gives_each_robot_its_colour_and_marks_its_uploads(tmp_path):

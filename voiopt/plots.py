@@ -182,6 +182,38 @@ def plot_sweep(sweep, rows: list[dict[str, Any]], path: Path) -> None:
     save_figure(fig, path)
 
 
+ROBOT_LABELS = {"optimum": "best exact plan (dp, milp)", "dp": "dp", "milp": "milp", **SCHEMES, "greedy": "greedy"}
+
+
+def plot_robots(sweep, rows: list[dict[str, Any]], path: Path) -> None:
+    """Fig. 8: the optimum (with its proven bound as a band where not certified) and each
+    method against the number of robots; Q-learning with its band over seeds."""
+    fig, ax = start_figure(figsize=(6.0, 4.2))
+    colours = {**COLOURS, "optimum": "black", "dp": "0.45", "milp": "tab:brown", "greedy": "tab:purple"}
+    for m, label in ROBOT_LABELS.items():
+        mine = [r for r in rows if r["method"] == m and r["mean"] is not None]
+        if not mine:
+            continue
+        xs = [r["x"] for r in mine]
+        ys = [r["mean"] for r in mine]
+        exact = m in ("optimum", "dp", "milp")
+        ax.plot(xs, ys, label=label, color=colours[m], marker="o", ms=4, ls="--" if exact else "-",
+                lw=2.0 if m == "optimum" else 1.2)
+        if m in RANDOMISED:
+            ax.fill_between(xs, [r["seed_min"] for r in mine], [r["seed_max"] for r in mine], color=colours[m],
+                            alpha=0.2, lw=0)
+        if m == "optimum" and any(r["mean_bound"] is not None and r["certified"] < r["networks"] for r in mine):
+            ax.fill_between(xs, ys, [r["mean_bound"] if r["mean_bound"] is not None else r["mean"] for r in mine],
+                            color="0.6", alpha=0.3, label="proven upper bound (not certified)")
+    ax.set_yscale("log")
+    ax.set_xticks(list(sweep.values))
+    ax.set_xlabel(sweep.x_label)
+    ax.set_ylabel("time-average minimum VoI (bit/s)\nmean over networks; Q-learning: mean over seeds", fontsize=8)
+    ax.set_title(sweep.title, fontsize=8)
+    ax.legend(fontsize=7)
+    save_figure(fig, path)
+
+
 def case_study_figures(inst: Instance, results: dict[str, Result], out: Path) -> list[Path]:
     fig, axes = start_figure(2, 2, figsize=(10, 10))
     for ax, (m, r) in zip(axes.ravel(), results.items(), strict=True):

@@ -43,7 +43,9 @@ class Sweep:
 
     def generator_kwargs(self, v: float) -> dict[str, Any]:
         base = dict(n_sensors=4, horizon=30, rho=(0.0, 1.0), power_w=1.0)
-        if self.key == "fig5_power":
+        if self.key == "fig8_robots":
+            base.update(n_sensors=8, robots=int(v))
+        elif self.key == "fig5_power":
             base["power_w"] = v
         elif self.key == "fig6_heterogeneity":
             base["rho"] = (0.5 - v, 0.5 + v)
@@ -107,6 +109,14 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
 # would make the curves depend on the machine's load)
 EXACT_ONLY = {"time_limit": ["dp"]}
 
+# Fig. 8 (not in the paper): several robots (MODEL.md section 10) at N = 8, T = 30. The
+# optimum is the best of the two exact methods per network: dp (which plans jointly for two
+# robots where the product state fits, and declines otherwise) and milp; both get --time-limit.
+ROBOTS = Sweep("fig8_robots", "time-average min VoI vs number of robots (N = 8, rho ~ U(0, 1), P = 1 W, T = 30)",
+               "number of robots K", (1, 2, 3))
+ROBOT_METHODS = ("dp", "milp", "qlearning", "aoi-qlearning", "shortest-path", "greedy")
+ROBOT_EXACT = {"time_limit": ["dp", "milp"]}
+
 
 def make_figures(
     out_dir: str | os.PathLike,
@@ -145,6 +155,11 @@ def make_figures(
                                     group=f"{sweep.key} {sweep.x_label} = {v:g}", only=EXACT_ONLY, **opts)]
         sweep_tasks[sweep.key] = (sweep, insts, ts)
         tasks += ts
+    robot_insts = _sweep_instances(ROBOTS, networks, seed, out)
+    robot_tasks = [t for v in ROBOTS.values for p, i in robot_insts[v]
+                   for t in method_tasks(i, p, list(ROBOT_METHODS), OBJECTIVE, out / "results" / ROBOTS.key, seed,
+                                         seeds, group=f"{ROBOTS.key} K = {v:g}", only=ROBOT_EXACT, **opts)]
+    tasks += robot_tasks
     run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="figure runs")
 
     written = []
@@ -186,10 +201,76 @@ def make_figures(
             cells = {r["method"]: r for r in read_csv(csv_path) if float(r["x"]) == v}
             md.append(f"| {v:g} | " + " | ".join(f"{float(cells[m]['mean']):.4g}" if cells[m]["mean"] else "-" for m in SCHEMES)
                       + f" | {cells['dp']['certified']}/{cells['dp']['networks']} |")
+    written += _robots_figure(robot_insts, robot_tasks, networks, seed, seeds, reward_units, time_limit, out, md)
     md_path = out / "figures.md"
     with atomic_write(md_path) as f:
         f.write("\n".join(md) + "\n")
     return [*written, md_path]
+
+
+def _robots_figure(insts, tasks, networks: int, seed: int, seeds: int, reward_units: str, time_limit: float,
+                   out: Path, md: list[str]) -> list[Path]:
+    """Fig. 8: each method and the certified optimum against the number of robots. Per network
+    the optimum's value is the best exact plan and its bound the tightest proven bound of dp
+    and milp; a network is certified when they meet (relative 1e-6)."""
+    from voiopt.objectives import gap
+    from voiopt.plots import plot_robots
+
+    rows = []
+    for v in ROBOTS.values:
+        stems = {i.name for _, i in insts[v]}
+        mine = [t for t in tasks if t.instance_name in stems]
+        results = {m: [(t.seed, load_result(t.out_path), t.instance_name) for t in mine if t.method == m]
+                   for m in ROBOT_METHODS}
+        best: dict[str, tuple[float | None, float | None]] = {}
+        for name in sorted(stems):
+            exact = [r for m in ("dp", "milp") for _, r, n in results[m] if n == name]
+            values = [r.value for r in exact if r.value is not None]
+            bounds = [r.bound for r in exact if r.bound is not None]
+            best[name] = (max(values) if values else None, min(bounds) if bounds else None)
+        values = [b[0] for b in best.values() if b[0] is not None]
+        bounds = [b[1] for b in best.values() if b[1] is not None]
+        certified = sum(b[0] is not None and b[1] is not None and gap(b[0], b[1]) <= 1e-6 for b in best.values())
+        rows.append({"x": v, "method": "optimum", "networks": len(stems), "seeds": "",
+                     "mean": statistics.fmean(values) if len(values) == len(stems) else None,
+                     "seed_min": None, "seed_max": None, "ci95": None,
+                     "mean_bound": statistics.fmean(bounds) if len(bounds) == len(stems) else None,
+                     "certified": certified, "errors": ""})
+        for m in ROBOT_METHODS:
+            runs = results[m]
+            by_seed: dict[int | None, list[float]] = {}
+            for s, r, _ in runs:
+                if r.value is not None:
+                    by_seed.setdefault(s, []).append(r.value)
+            seed_means = [statistics.fmean(x) for x in by_seed.values() if len(x) == len(stems)]
+            rows.append({"x": v, "method": m, "networks": len(stems), "seeds": len(by_seed) if m in RANDOMISED else "",
+                         "mean": statistics.fmean(seed_means) if seed_means else None,
+                         "seed_min": min(seed_means) if seed_means else None,
+                         "seed_max": max(seed_means) if seed_means else None, "ci95": None,
+                         "mean_bound": None, "certified": sum(r.status == "optimal" for _, r, _ in runs),
+                         "errors": sum(r.status == "error" for _, r, _ in runs)})
+    key = ROBOTS.key
+    csv_path = out / f"{key}.csv"
+    write_csv(csv_path, rows, ["x", "method", "networks", "seeds", "mean", "seed_min", "seed_max", "ci95",
+                               "mean_bound", "certified", "errors"],
+              [ROBOTS.title, f"x = {ROBOTS.x_label}; {networks} networks each (robot 0 is the one-robot network's, "
+                             f"the others at distinct random starts); seeds {seed}..{seed + seeds - 1}; "
+                             f"Q-learning reward in {reward_units}",
+               "optimum rows: mean of the best exact plan and of the tightest proven bound (dp, milp, "
+               f"{time_limit:g} s each), certified = networks where they meet; a method's mean is empty where "
+               "it declined or failed on some network (errors counts those runs)"])
+    plot_robots(ROBOTS, rows, out / f"{key}.png")
+    md += ["", f"## {key} (several robots, not in the paper)", "", f"![{key}]({key}.png)", "",
+           f"{ROBOTS.title}. Numbers: `{key}.csv`.", "",
+           "| K | optimum (certified) | proven bound | " + " | ".join(ROBOT_METHODS) + " |",
+           "|---|---:|---:|" + "---:|" * len(ROBOT_METHODS)]
+    fmt = lambda x: "-" if x in (None, "") else f"{float(x):.4g}"  # noqa: E731
+    for v in ROBOTS.values:
+        cells = {r["method"]: r for r in rows if r["x"] == v}
+        opt = cells["optimum"]
+        md.append(f"| {v:g} | {fmt(opt['mean'])} ({opt['certified']}/{opt['networks']}) | {fmt(opt['mean_bound'])} | "
+                  + " | ".join(fmt(cells[m]["mean"]) for m in ROBOT_METHODS) + " |")
+    return [out / f"{key}.png", csv_path]
 
 
 def _spread(values: list[float | None]) -> str:

@@ -27,7 +27,7 @@ from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
 from voiopt.progress import progress_bar
 from voiopt.result import Result, load_result
-from voiopt.solvers import METHODS, RANDOMISED, solver_function
+from voiopt.solvers import METHODS, RANDOMISED, check_robots, solver_function
 from voiopt.solvers.base import check_limits
 from voiopt.stop import INTERRUPTED, Interrupted, watch
 
@@ -155,6 +155,7 @@ def solve_task(task: Task) -> dict[str, Any]:
     start = time.perf_counter()
     try:
         inst = instance_mod.from_dict(task.instance, source=task.instance_path)
+        check_robots(inst, task.method)
         result = solver_function(task.method)(inst, task.objective, **task.options)
     except Exception as e:  # recorded, never fatal for the sweep
         result = Result(
