@@ -128,3 +128,11 @@ def test_a_joint_table_that_cannot_fit_is_refused_in_one_line(tmp_path, capsys):
     assert main(["solve", str(path), "--method", "qlearning", "--episodes", "10"]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert len(err) == 1 and "joint points" in err[0] and "Traceback" not in err[0]
+
+
+def test_a_table_that_outgrows_the_limit_stops_with_the_greedy_plan():
+    """Past the first allocation the joint table grows on demand, as the one-robot one does,
+    and stops at the memory limit with a legal plan and the status that says so."""
+    r = voiopt.solve(_fleet_of(2, 4, 5.0, ends=True), method="qlearning", episodes=100_000, memory_limit=0.02)
+    assert r.status == "memory_limit" and "memory limit of 0.02 GB" in r.solver["stopped"]
+    assert r.solver["table_mib"] < 20 and isinstance(r.plan, FleetPlan)

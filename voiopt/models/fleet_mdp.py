@@ -19,6 +19,7 @@ import itertools
 from dataclasses import dataclass
 from functools import cached_property
 
+import numba as nb
 import numpy as np
 
 from voiopt import lattice as lattice_mod
@@ -217,6 +218,36 @@ def _joint_moves(neighbors: np.ndarray, K: int):
     return configs, nxt_cfg, moved
 
 
+@nb.njit(cache=True)
+def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
+    """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: some joint move leads to a joint point
+    and moves made that are alive in the next slot, no counted robot passing its budget."""
+    T, C, M = alive.shape
+    K = counted.shape[0]
+    for t in range(T - 2, -1, -1):
+        for c in range(C):
+            for m in range(M):
+                within = True
+                for k in range(K):
+                    if counted[k] and mv_idx[m, k] > budgets[k]:
+                        within = False
+                if not within:
+                    continue
+                for mv in range(nxt_cfg.shape[1]):
+                    c2 = nxt_cfg[c, mv]
+                    if c2 < 0:
+                        continue
+                    m2, good = m, True
+                    for k in range(K):
+                        if counted[k] and moved[mv, c, k]:
+                            if mv_idx[m, k] + 1 > budgets[k]:
+                                good = False
+                            m2 += strides[k]
+                    if good and alive[t + 1, c2, m2]:
+                        alive[t, c, m] = 1
+                        break
+
+
 def _alive_table(instance: Instance, lats, budgets, counted, radix) -> np.ndarray:
     """alive[t, config, moves]: from the robots' points in slot t, with these moves made, a
     joint way exists that keeps every rule of sections 9 and 10 until the last slot."""
@@ -231,19 +262,8 @@ def _alive_table(instance: Instance, lats, budgets, counted, radix) -> np.ndarra
             at_end &= configs[:, k] == lat.end
     alive = np.zeros((T, len(configs), M), dtype=np.uint8)
     alive[T - 1] = at_end[:, None] & within[None, :]
-    strides = np.cumprod([1, *radix[::-1]])[:-1][::-1]
-    for t in range(T - 2, -1, -1):
-        nxt = alive[t + 1]
-        cur = np.zeros((len(configs), M), dtype=bool)
-        for c in range(nxt_cfg.shape[1]):
-            ok = nxt_cfg[:, c] >= 0
-            add = moved[c] & counted[None, :]  # (configs, K): the counted robots that move
-            m2 = mv_idx[None, :, :] + add[:, None, :]  # (configs, M, K)
-            m2_ok = np.all(m2 < np.array(radix)[None, None, :], axis=2)
-            flat = np.minimum(m2, np.array(radix) - 1) @ strides
-            got = nxt[np.maximum(nxt_cfg[:, c], 0)[:, None], flat].astype(bool) & m2_ok & ok[:, None]
-            cur |= got
-        alive[t] = cur & within[None, :]
+    strides = np.cumprod([1, *radix[::-1]])[:-1][::-1].astype(np.int64)
+    _alive_backwards(alive, nxt_cfg, moved, np.asarray(counted), np.asarray(budgets), strides, mv_idx)
     return alive
 
 
@@ -295,7 +315,7 @@ def sizes(instance: Instance, first_states: int) -> dict[str, float]:
     joint = float(per_point) ** K
     configs = float(lat.n_points) ** K
     mask = alive_bytes(instance)
-    moves_tables = configs * 5.0**K * (8 + K) + 3 * 8.0 * K * mask / max(T, 1) if mask else 0.0
+    moves_tables = configs * 5.0**K * (8 + K + 8.0 * K / 5.0**K) if mask else 0.0  # next points, moved, configs
     words = 2 * N + 2 * K + 3  # an upper bound on the packed key's words plus the slot's two
     reward_table = 8.0 * N * (max(s.initial_aoi for s in instance.sensors) + T + 1) * (lat.n_points + 1)
     table = 8.0 * first_states * words + 8.0 * (0.7 * first_states + T + 1) * joint
