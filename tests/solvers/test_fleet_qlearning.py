@@ -136,3 +136,14 @@ def test_a_table_that_outgrows_the_limit_stops_with_the_greedy_plan():
     r = voiopt.solve(_fleet_of(2, 4, 5.0, ends=True), method="qlearning", episodes=100_000, memory_limit=0.02)
     assert r.status == "memory_limit" and "memory limit of 0.02 GB" in r.solver["stopped"]
     assert r.solver["table_mib"] < 20 and isinstance(r.plan, FleetPlan)
+
+
+def test_robots_that_can_only_pass_by_swapping_are_told_so():
+    """A one-lane corridor with each robot's end at the other's start: each robot alone can
+    finish, together they cannot (the loader accepts it; the joint mask finds no way)."""
+    d = voiopt.generate(1, 6, width=2.0, height=1.0, seed=2).to_dict()
+    del d["start"]
+    d["blocked"] = [[0, 1], [1, 1], [2, 1]]
+    d["robots"] = [{"start": [0, 0], "end": [2, 0]}, {"start": [2, 0], "end": [0, 0]}]
+    with pytest.raises(voiopt.OptionError, match="no joint plan keeps the rules between robots"):
+        voiopt.solve(from_dict(d), method="qlearning", episodes=10)
