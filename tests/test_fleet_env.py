@@ -105,6 +105,7 @@ def test_agents_sampling_their_own_masks_always_make_a_legal_plan(inst):
         obs, _ = env.reset(seed=episode)
         assert env.agents == ["robot_0", "robot_1"]
         while env.agents:
+            assert all(env.observation_space(a).contains(obs[a]) for a in env.agents)
             actions = {a: int(rng.choice(np.flatnonzero(obs[a]["action_mask"]))) for a in env.agents}
             obs, rewards, *_, infos = env.step(actions)
             assert not infos["robot_0"]["replaced"]  # robot 0 sampled from its mask: it always stands
