@@ -25,6 +25,11 @@ divided by the instance's certified ``mean-min-voi`` optimum (VoI-Lib's certific
 instance is in VoI-Lib, else dp's), no penalty. Over an episode the plan's ``mean-min-voi`` is
 then (sum of rewards) * optimum / T, or, with the paper's VoI reward, (sum of rewards + penalty *
 idle slots) / T (``info["idle_slots"]``).
+
+Several robots (MODEL.md section 10): a fleet instance makes a ``FleetVoIEnv``, whose action is
+the joint action, Discrete(((N + 1) * 5) ** K), with an exact mask of the legal joint actions
+(a MultiDiscrete action's per-robot masks could not rule out two robots choosing one point);
+``position`` is then (K, 2) and ``plan()`` a FleetPlan. One agent per robot: voiopt/pz_env.py.
 """
 
 from __future__ import annotations
@@ -76,14 +81,18 @@ class VoIEnv(gym.Env):
         self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
         self.sample = None if instance is not None else {**SAMPLE, **(sample or {})}
         self._load(instance if instance is not None else generate_network(seed=0, **self.sample))
-        lat, N = self.lattice, self.instance.n_sensors
+        lat, N, K = self.lattice, self.instance.n_sensors, self.instance.n_robots
         box = lambda *shape: spaces.Box(0.0, 1.0, shape=shape, dtype=np.float32)  # noqa: E731
-        obs = {"position": box(2), "aoi": box(N), "q": box(N), "slot": box(1)}
+        obs = {"position": box(K, 2) if self.instance.fleet else box(2), "aoi": box(N), "q": box(N), "slot": box(1)}
         if self.observe_sensors:
             obs.update(sensors=box(N, 2), rho=box(N))
         self.observation_space = spaces.Dict(obs)
-        self.action_space = spaces.Discrete((N + 1) * 5)
+        self.action_space = spaces.Discrete(((N + 1) * 5) ** K)
         self._shape = (N, lat.nx, lat.ny, self.instance.horizon)
+
+    def __new__(cls, instance: Instance | None = None, *args, **kwargs):
+        """A fleet instance (MODEL.md section 10) makes a FleetVoIEnv: the joint action."""
+        return super().__new__(FleetVoIEnv if instance is not None and instance.fleet else cls)
 
     # ------------------------------------------------------------------ the instance
 
@@ -100,9 +109,12 @@ class VoIEnv(gym.Env):
         self._max_age = float(self.model.initial_aoi.max() + instance.horizon)
         self._diagonal = math.hypot(instance.width, instance.height)
         self._optimum = None
+        self._restart()
+
+    def _restart(self) -> None:
         self.state, self.t = self.model.initial_state(), 0
-        self._positions: list[int] = []
-        self._schedule: list[int] = []
+        self._positions: list = []
+        self._schedule: list = []
         self._idle = 0
 
     def optimum(self) -> float:
@@ -133,11 +145,13 @@ class VoIEnv(gym.Env):
         elif self.sample is not None:  # a fresh paper-style network from the env's own generator
             self._load(generate_network(seed=int(self.np_random.integers(2**63)), **self.sample))
         else:
-            self.state, self.t, self._positions, self._schedule = self.model.initial_state(), 0, [], []
-        self._idle = 0
+            self._restart()
         return self._obs(), self._info()
 
     def _check_fits(self, inst: Instance) -> None:
+        if inst.n_robots != self.instance.n_robots:
+            raise OptionError(f"options.instance: {inst.name} has {inst.n_robots} robot(s); this env's spaces are for "
+                              f"{self.instance.n_robots} (make a new env with instance=...)")
         lat = lattice_mod.build(inst)
         if (inst.n_sensors, lat.nx, lat.ny, inst.horizon) != self._shape:
             N, nx, ny, T = self._shape
@@ -155,12 +169,17 @@ class VoIEnv(gym.Env):
 
     action_mask = action_masks
 
-    def step(self, action):
+    def _check_action(self, action) -> int:
+        """The action as an int; raises if it is outside the space or the episode has ended."""
         a = int(action)
         if not 0 <= a < self.action_space.n:
             raise OptionError(f"action: must be in 0..{self.action_space.n - 1}, got {action!r}")
         if self.t >= self.instance.horizon:
             raise RuntimeError("step() after the episode ended: call reset()")
+        return a
+
+    def step(self, action):
+        a = self._check_action(action)
         p = self.state[0]
         mask = self.action_masks()
         feasible = bool(mask[a])
@@ -197,12 +216,17 @@ class VoIEnv(gym.Env):
         """The episode's plan so far (a whole plan, which ``voiopt evaluate`` scores, after T steps)."""
         return Plan.from_indices(self.instance, self._positions, self._schedule)
 
+    def _points(self) -> list[int]:
+        """The robot's point (each robot's, for a fleet)."""
+        return [self.state[0]]
+
     def _obs(self) -> dict[str, np.ndarray]:
-        p, aoi, qidx, *_ = self.state
+        _, aoi, qidx, *_ = self.state
         inst, lat = self.instance, self.lattice
         dist = np.array([inst.initial_distance(i) if q == 0 else lat.distance[i, q - 1] for i, q in enumerate(qidx)])
+        position = lat.points[self._points()] / [inst.width, inst.height]
         obs = {
-            "position": (lat.points[p] / [inst.width, inst.height]).astype(np.float32),
+            "position": position.reshape(self.observation_space["position"].shape).astype(np.float32),
             "aoi": np.clip(np.asarray(aoi) / self._max_age, 0, 1).astype(np.float32),
             "q": np.clip(dist / self._diagonal, 0, 1).astype(np.float32),
             "slot": np.array([self.t / inst.horizon], dtype=np.float32),
@@ -229,14 +253,15 @@ class VoIEnv(gym.Env):
     def _ansi(self) -> str:
         """The lattice, top row first: R the robot, # blocked, D the end (dock), i the nearest
         point of sensor i (mod 10), . a free point; then each sensor's position, rho and AoI."""
-        lat, inst, p = self.lattice, self.instance, self.state[0]
+        lat, inst, points = self.lattice, self.instance, self._points()
         cells = np.full(lat.n_points, ".", dtype=object)
         cells[lat.blocked] = "#"
         if lat.end >= 0:
             cells[lat.end] = "D"
         for i in range(inst.n_sensors):
             cells[int(np.argmin(lat.distance[i]))] = str(i % 10)
-        cells[p] = "R"
+        for k, p in enumerate(points):  # R for one robot, A, B, ... for a fleet
+            cells[p] = "R" if len(points) == 1 else chr(ord("A") + k % 26)
         rows = [" ".join(cells[k * lat.ny + l] for k in range(lat.nx)) for l in reversed(range(lat.ny))]
         _, aoi, *_ = self.state
         rows.append(f"slot {self.t}/{inst.horizon}")
@@ -245,7 +270,7 @@ class VoIEnv(gym.Env):
         return "\n".join(rows) + "\n"
 
     def _rgb(self) -> np.ndarray:
-        lat, p = self.lattice, self.state[0]
+        lat, points = self.lattice, self._points()
         img = np.full((lat.ny * CELL, lat.nx * CELL, 3), 255, dtype=np.uint8)
         for q in range(lat.n_points):
             k, l = lat.coords[q]
@@ -257,7 +282,7 @@ class VoIEnv(gym.Env):
                 color = (80, 80, 80)
             if q == lat.end:
                 color = (60, 170, 60)
-            if q == p:
+            if q in points:
                 color = (220, 40, 40)
             img[y0 + 2: y0 + CELL - 2, x0 + 2: x0 + CELL - 2] = color
         for s in self.instance.sensors:
@@ -265,6 +290,120 @@ class VoIEnv(gym.Env):
             y = int(round((lat.ny - 1 - s.position[1] / lat.step) * CELL + CELL / 2))
             img[max(y - 3, 0): y + 3, max(x - 3, 0): x + 3] = (20, 60, 200)
         return img
+
+
+MAX_JOINT_ACTIONS = 1 << 22  # the longest joint action mask a FleetVoIEnv offers
+
+
+class FleetVoIEnv(VoIEnv):
+    """Several robots (MODEL.md section 10): one joint decision per slot, every robot's (upload,
+    move). Action: Discrete(((N + 1) * 5) ** K), the number sum_k a_k * ((N + 1) * 5) ** (K - 1 - k)
+    with a_k robot k's one-robot action number (robot 0 most significant; ``joint_action``
+    builds it). ``action_masks()`` marks exactly the legal joint actions (models/fleet_mdp.py):
+    no shared point, no swap, a sensor to at most one robot, and a way for all robots together
+    to keep every robot's section-9 rules. An illegal joint action raises, or with
+    ``infeasible="penalise"`` is executed as the requested moves without uploads if that is
+    legal, else as the first legal joint action, minus ``penalty``. Reward: MODEL.md sections 7
+    and 10 (the penalty once per robot that uploads nothing); ``reward_mode="paper"`` only."""
+
+    def __init__(self, instance: Instance, *args, **kwargs):
+        super().__init__(instance, *args, **kwargs)
+        if self.reward_mode != "paper":
+            raise OptionError("reward_mode: a fleet has no certified optimum to normalise by; use 'paper'")
+
+    def _load(self, instance: Instance) -> None:
+        from voiopt.models import fleet_mdp
+
+        N, K = instance.n_sensors, instance.n_robots
+        A = (N + 1) * 5
+        if A**K > MAX_JOINT_ACTIONS:
+            raise OptionError(f"instance: {K} robots among {N} sensors have {A}^{K} = {A**K} joint actions, over the "
+                              f"{MAX_JOINT_ACTIONS} a joint action mask may have")
+        self.instance = instance
+        self.joint = fleet_mdp.build(instance, self.options["reward"], self.options["penalty"],
+                                     reward_units=self.options["reward_units"])
+        self.model = self.joint.one
+        self.lattice = lattice_mod.build(instance)
+        self._global = np.array([[(u + 1) * 5 + m for u, m in self.model.actions(p)] + [-1] * (self.model.max_actions
+                                 - int(self.model.n_actions[p])) for p in range(self.lattice.n_points)], dtype=np.int64)
+        self._max_age = float(self.model.initial_aoi.max() + instance.horizon)
+        self._diagonal = math.hypot(instance.width, instance.height)
+        self._optimum = None
+        self._restart()
+
+    def _restart(self) -> None:
+        K = self.instance.n_robots
+        self.state, self.t = self.joint.initial_state(), 0
+        self._positions, self._schedule = [[] for _ in range(K)], [[] for _ in range(K)]
+        self._idle = 0
+
+    def _points(self) -> list[int]:
+        return list(self.state[0])
+
+    def joint_action(self, actions) -> int:
+        """The Discrete number of per-robot actions (each upload * 5 + move, upload 0 = none)."""
+        A = (self.instance.n_sensors + 1) * 5
+        out = 0
+        for a in actions:
+            out = out * A + int(a)
+        return out
+
+    def split_action(self, action: int) -> list[int]:
+        """Per-robot actions (upload * 5 + move) of a joint Discrete number."""
+        A, out = (self.instance.n_sensors + 1) * 5, []
+        for _ in range(self.instance.n_robots):
+            out.append(int(action) % A)
+            action = int(action) // A
+        return out[::-1]
+
+    def _env_number(self, j: int) -> int:
+        points = self.state[0]
+        return self.joint_action(self._global[p, a] for p, a in zip(points, self.joint.split(points, j), strict=True))
+
+    def action_masks(self) -> np.ndarray:
+        """Bool mask over the Discrete joint actions: exactly the legal ones."""
+        mask = np.zeros(self.action_space.n, dtype=bool)
+        if self.t < self.instance.horizon:
+            mask[[self._env_number(j) for j in self.joint.legal(self.state, self.t)]] = True
+        return mask
+
+    action_mask = action_masks
+
+    def _mdp_number(self, actions) -> int | None:
+        """The joint action number of models/fleet_mdp.py, or None if some robot's action does
+        not exist at its point (off the area, onto a blocked point, a sensor out of range)."""
+        j = 0
+        for p, a in zip(self.state[0], actions, strict=True):
+            hit = np.flatnonzero(self._global[p] == a)
+            if not len(hit):
+                return None
+            j = j * int(self.model.n_actions[p]) + int(hit[0])
+        return j
+
+    def step(self, action):
+        a = self._check_action(action)
+        legal = self.joint.legal(self.state, self.t)
+        j = self._mdp_number(self.split_action(a))
+        feasible = j in legal
+        if not feasible:
+            if self.infeasible == "raise":
+                raise OptionError(f"joint action {a} (robots' actions {self.split_action(a)}) is illegal in slot "
+                                  f"{self.t} (see action_masks())")
+            j = self._mdp_number([m % 5 for m in self.split_action(a)])
+            j = j if j in legal else legal[0]
+        points = self.state[0]
+        for k, (p, b) in enumerate(zip(points, self.joint.split(points, j), strict=True)):
+            u = int(self.model.action_upload[p, b])
+            self._positions[k].append(p)
+            self._schedule[k].append(u)
+            self._idle += u < 0
+        self.state, reward = self.joint.step(self.state, j)
+        if not feasible:
+            reward -= self.options["penalty"]
+        self.t += 1
+        info = self._info()
+        info["infeasible"] = not feasible
+        return self._obs(), float(reward), self.t >= self.instance.horizon, False, info
 
 
 if ENV_ID not in gym.registry:

@@ -154,6 +154,19 @@ def _bits(max_value: int) -> int:
     return max(1, int(max_value).bit_length())
 
 
+def pack(widths: list[int]) -> tuple[np.ndarray, np.ndarray, int]:
+    """(word, bit offset) of each field of these widths packed into 64-bit words, no field
+    straddling a word, and the number of words."""
+    field_word, field_shift, word, used = [], [], 0, 0
+    for w in widths:
+        if used + w > 64:
+            word, used = word + 1, 0
+        field_word.append(word)
+        field_shift.append(used)
+        used += w
+    return np.array(field_word, dtype=np.int64), np.array(field_shift, dtype=np.int64), word + 1
+
+
 def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY,
           slot_in_state: bool = False, reward_units: str = "bit/s") -> MDP:
     """The arrays of the MDP of ``instance`` with the VoI or AoI reward."""
@@ -194,20 +207,13 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
     moves_in_state = lat.budget < T - 1
     # moves made reach budget + 1 after a move in the last slot (every action is feasible there)
     widths = [_bits(n - 1)] + [_bits(max_age), _bits(n)] * N + [_bits(T)] + ([_bits(lat.budget + 1)] if moves_in_state else [])
-    field_word, field_shift, word, used = [], [], 0, 0
-    for w in widths:
-        if used + w > 64:
-            word, used = word + 1, 0
-        field_word.append(word)
-        field_shift.append(used)
-        used += w
+    field_word, field_shift, n_words = pack(widths)
     arrays = [initial_aoi, n_actions, action_upload, action_move, action_next, voi_reward]
     for a in arrays:
         a.setflags(write=False)
     return MDP(
         instance, reward, float(penalty), reward_units, bool(slot_in_state), int(lat.start), initial_aoi, n_actions, action_upload,
-        action_move, action_next, voi_reward, np.array(field_word, dtype=np.int64),
-        np.array(field_shift, dtype=np.int64), np.array(widths, dtype=np.int64), word + 1,
+        action_move, action_next, voi_reward, field_word, field_shift, np.array(widths, dtype=np.int64), n_words,
         np.ascontiguousarray(lat.to_end, dtype=np.int64), int(lat.budget), bool(lat.end >= 0 or moves_in_state),
         moves_in_state,
     )

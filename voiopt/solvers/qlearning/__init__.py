@@ -5,6 +5,8 @@
 - _kernels: training episodes and the greedy rollout, compiled;
 - solver: options, the training loop with progress and the stop rule, the result;
 - reference: Algorithm 1 in plain Python, which the kernels reproduce bit for bit.
+- _fleet: the same for several robots (MODEL.md section 10), over the joint state and action of
+  models/fleet_mdp.py; reference.reference_fleet_qlearning is its plain-Python statement.
 """
 
 from voiopt.solvers.qlearning._kernels import rollout, train

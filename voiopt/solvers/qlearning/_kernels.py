@@ -38,6 +38,24 @@ def _set_field(k0, key, f, value, field_word, field_shift, clear):
 
 
 @nb.njit(cache=True, inline="always")
+def _slot_reward(aoi, qidx, voi_reward, aoi_reward):
+    """min_i V_i(t+1), or -max_i A_i(t+1) with the AoI reward, before any idle penalty."""
+    N = aoi.shape[0]
+    if aoi_reward:
+        worst = aoi[0]
+        for i in range(1, N):
+            if aoi[i] > worst:
+                worst = aoi[i]
+        return -float(worst)
+    r = voi_reward[0, aoi[0], qidx[0]]
+    for i in range(1, N):
+        v = voi_reward[i, aoi[i], qidx[i]]
+        if v < r:
+            r = v
+    return r
+
+
+@nb.njit(cache=True, inline="always")
 def _feasible(p, k, t, moves, horizon, action_next, to_end, budget):
     """Action k at p in slot t leaves a way to end within the slots and moves left (MODEL.md
     section 9); every action is feasible in the last slot."""
@@ -167,18 +185,7 @@ def _train(
                 qidx[u] = 1 + p
                 k0 = _set_field(k0, key, 1 + 2 * u, 1, field_word, field_shift, clear)  # A_u = 1
                 k0 = _set_field(k0, key, 2 + 2 * u, 1 + p, field_word, field_shift, clear)  # q_u: from p
-            if aoi_reward:
-                worst = aoi[0]
-                for i in range(1, N):
-                    if aoi[i] > worst:
-                        worst = aoi[i]
-                r = -float(worst)
-            else:
-                r = voi_reward[0, aoi[0], qidx[0]]
-                for i in range(1, N):
-                    v = voi_reward[i, aoi[i], qidx[i]]
-                    if v < r:
-                        r = v
+            r = _slot_reward(aoi, qidx, voi_reward, aoi_reward)
             if u < 0:
                 r = r - penalty
             # find s_{t+1}; store it unless it is s_T (never acted in)

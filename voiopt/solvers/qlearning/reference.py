@@ -28,6 +28,11 @@ class SplitMix64:
         return (z >> 11) * (1.0 / 9007199254740992.0)
 
 
+def first_max(q, allowed):
+    """The first action of maximal Q-value among the allowed ones (ascending)."""
+    return max(allowed, key=lambda j: (q[j], -j))
+
+
 def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75, gamma: float = 0.9,
                         q_init: float = 0.0):
     """Run Algorithm 1 on an voiopt.models.mdp.MDP; return (Q dict, point indices, schedule)."""
@@ -40,9 +45,6 @@ def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75,
         if state not in Q:
             Q[state] = [q_init] * int(model.n_actions[state[0]])
         return Q[state]
-
-    def first_max(q, allowed):
-        return max(allowed, key=lambda j: (q[j], -j))
 
     def feasible(state, t, q):  # the paper's model needs no mask: every action, at no cost
         return range(len(q)) if not model.masked else np.flatnonzero(model.feasible(state, t)).tolist()
@@ -76,5 +78,49 @@ def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75,
         k = allowed[0] if q is None else first_max(q, allowed)
         idx.append(state[0])
         sched.append(int(model.action_upload[state[0], k]))
+        state, _ = model.step(state, k)
+    return Q, idx, sched
+
+
+def reference_fleet_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75, gamma: float = 0.9,
+                              q_init: float = 0.0):
+    """Algorithm 1 on a voiopt.models.fleet_mdp.FleetMDP (MODEL.md section 10): one list of
+    Q-values per joint state, one per joint action number; exploration draws among the legal
+    joint actions, the greedy choice and the bootstrap range over them. Returns (Q dict,
+    (K, T) point indices, (K, T) schedule), what the compiled _fleet.py must reproduce."""
+    rng, T, Q = SplitMix64(seed), model.horizon, {}
+    eps, eps0 = 1.0, 1.0 / episodes
+    for _ in range(episodes):
+        state = model.initial_state()
+        q = Q.setdefault(state, [q_init] * model.joint_count(state[0]))
+        for t in range(T):
+            allowed = model.legal(state, t)
+            if rng.uniform() < eps:
+                k = allowed[int(rng.uniform() * len(allowed))]
+            else:
+                k = first_max(q, allowed)
+            nxt, r = model.step(state, k)
+            if t + 1 < T:
+                q_next = Q.setdefault(nxt, [q_init] * model.joint_count(nxt[0]))
+            else:
+                q_next = Q.get(nxt)
+            if q_next is None:
+                future = q_init
+            else:
+                future = max(q_next[j] for j in model.legal(nxt, t + 1))
+            q[k] = (1.0 - beta) * q[k] + beta * r + beta * gamma * future
+            state, q = nxt, q_next
+        eps = eps - eps0
+
+    K = model.n_robots
+    idx, sched = [[] for _ in range(K)], [[] for _ in range(K)]
+    state = model.initial_state()
+    for t in range(T):
+        allowed = model.legal(state, t)
+        q = Q.get(state)
+        k = allowed[0] if q is None else first_max(q, allowed)
+        for r, (p, a) in enumerate(zip(state[0], model.split(state[0], k), strict=True)):
+            idx[r].append(p)
+            sched[r].append(int(model.one.action_upload[p, a]))
         state, _ = model.step(state, k)
     return Q, idx, sched

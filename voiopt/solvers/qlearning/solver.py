@@ -10,8 +10,9 @@ import numpy as np
 from rich.progress import TextColumn
 
 from voiopt import lattice as lattice_mod
-from voiopt.errors import OptionError
+from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
+from voiopt.models import fleet_mdp
 from voiopt.models import mdp as mdp_mod
 from voiopt.objectives import AOI_DEFAULT, DEFAULT, check_objective
 from voiopt.plan import Plan
@@ -19,6 +20,7 @@ from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate_indices
 from voiopt.solvers import base
+from voiopt.solvers.qlearning import _fleet
 from voiopt.solvers.qlearning._kernels import rollout, train
 from voiopt.solvers.qlearning._qtable import QTable
 from voiopt.solvers.qlearning._rng import seed_state
@@ -38,12 +40,19 @@ def warm_up() -> float:
     if _WARM:
         return 0.0
     from voiopt.generate import generate
+    from voiopt.instance import from_dict
 
     t0 = time.perf_counter()
     model = mdp_mod.build(generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up"))
     table = QTable(model, 0.0, 64 * 2**20)
     train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
     rollout(model, table)
+    tiny = generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up").to_dict()
+    del tiny["start"]
+    fleet = fleet_mdp.build(from_dict({**tiny, "robots": [{"start": [0, 0]}, {"start": [1, 1], "end": [1, 0]}]}))
+    table = QTable(fleet, 0.0, 64 * 2**20, slots=16)
+    _fleet.train(fleet, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
+    _fleet.rollout(fleet, table)
     _WARM = True
     return time.perf_counter() - t0
 
@@ -70,6 +79,20 @@ def mdp_bytes(instance: Instance) -> float:
     return base.lattice_bytes(instance) + 8.0 * N * (max_age + 1) * (n + 1) + 3 * 8.0 * n * 5 * (N + 1) + 2**15 * 8 * (2 * N + 4)
 
 
+def _require_fleet_memory(instance: Instance, memory_limit: float) -> None:
+    """Refuse, in one line and before allocating, a fleet whose joint Q-table cannot be held:
+    a joint row longer than a table row may be (16-bit greedy action), or the joint mask, the
+    reward table and a first table with one episode's rows over ``memory_limit``."""
+    size = fleet_mdp.sizes(instance, _fleet.FLEET_SLOTS)
+    K, J, n = instance.n_robots, int(size["joint_actions"]), lattice_mod.n_points(instance)
+    what = (f"{K} robots, up to {size['per_robot_actions']}^{K} = {J} joint actions a state, "
+            f"{n}^{K} = {int(size['joint_points'])} joint points, T = {instance.horizon}")
+    if J > fleet_mdp.MAX_JOINT_ACTIONS:
+        raise MemoryLimitError(f"robots: the joint Q-table cannot hold {what}: a state may have at most "
+                               f"{fleet_mdp.MAX_JOINT_ACTIONS} joint actions (use fewer robots, or fewer sensors in range)")
+    base.require_memory(size["bytes"], memory_limit, f"the joint Q-table and masks ({what})")
+
+
 METHOD_OF_REWARD = {"voi": "qlearning", "aoi": "aoi-qlearning"}
 
 
@@ -84,11 +107,16 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     if not isinstance(slot_in_state, bool):
         raise OptionError(f"slot_in_state: must be true or false, got {slot_in_state!r}")
     method = METHOD_OF_REWARD[reward]
-    base.require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
+    if instance.fleet:
+        _require_fleet_memory(instance, memory_limit)
+        build, slots, train_fn, rollout_fn = fleet_mdp.build, _fleet.FLEET_SLOTS, _fleet.train, _fleet.rollout
+    else:
+        base.require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
+        build, slots, train_fn, rollout_fn = mdp_mod.build, 1 << 15, train, rollout
     startup_s = warm_up()
     with watch(time_limit, memory_limit) as stop:
-        model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
-        table = QTable(model, q_init, stop.memory_bytes)
+        model = build(instance, reward, penalty, slot_in_state, reward_units)
+        table = QTable(model, q_init, stop.memory_bytes, slots=slots)
         eps = np.array([1.0])
         eps0 = 1.0 / episodes
         rng = np.array([seed_state(seed)], dtype=np.uint64)
@@ -100,11 +128,11 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
             while done < episodes:
                 n = min(chunk, episodes - done)
                 c0 = time.perf_counter()
-                ran, fits = train(model, table, n, eps, eps0, beta, gamma, rng)
+                ran, fits = train_fn(model, table, n, eps, eps0, beta, gamma, rng)
                 done += ran
                 elapsed = time.perf_counter() - c0
                 chunk = int(min(max(chunk * min(4.0, 0.25 / max(elapsed, 1e-3)), 100), 200_000))
-                idx, sched = rollout(model, table)
+                idx, sched = rollout_fn(model, table)
                 value = simulate_indices(instance, idx, sched).metrics[objective]
                 bar.update(task, completed=done, eps=max(float(eps[0]), 0.0), greedy=f"{value:.6g}",
                            states=table.n_states)
@@ -115,7 +143,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
                         bar.console.print(f"[yellow]{method}: {stop.describe()} after {done} of {episodes} "
                                           "episodes; returning the greedy plan so far")
                     break
-        idx, sched = rollout(model, table)
+        idx, sched = rollout_fn(model, table)
     solver = {
         "reward": reward, "reward_units": reward_units, "episodes": episodes, "episodes_run": done, "seed": seed,
         "beta": beta, "gamma": gamma, "epsilon0": eps0, "q_init": q_init, "penalty": penalty,
@@ -123,6 +151,8 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         "table_states": table.n_states, "table_mib": round(table.nbytes / 2**20, 3),
         "startup_s": startup_s,
     }
+    if instance.fleet:
+        solver.update(robots=instance.n_robots, joint_actions_max=model.max_actions)
     if stop.reason and done < episodes:
         solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes ({table.n_states} states)"
     return Result.from_plan(
