@@ -10,6 +10,11 @@
 
 Every plan is re-simulated; the result's value is the simulator's. A time limit or Ctrl-C
 returns the best plan found (at worst the warm start) with the proven bound.
+
+Several robots (MODEL.md section 10) use the same two methods on the fleet model of
+models/milp/fleet.py; their first plan is the given one, else each robot's greedy plan if
+together they keep the rules between robots, else any plan of the path model, whose
+infeasibility is the status ``infeasible``.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import objectives
-from voiopt.errors import OptionError
+from voiopt.errors import OptionError, PlanError
 from voiopt.instance import Instance
 from voiopt.models import milp as model_mod
 from voiopt.objectives import DEFAULT, check_objective
@@ -78,14 +83,20 @@ def solve(
         raise OptionError(f"--gap: must be >= 0, got {gap:g}")
     check_threads(threads)
     T, n = instance.horizon, lattice_mod.n_points(instance)
-    columns = T * n + T * instance.n_sensors * points_in_range(instance) * (2 if objectives.get(objective).per_slot else 1)
+    columns = T * n * (1 + 6 * len(instance.fleet)) + T * instance.n_sensors * points_in_range(instance) * (2 if objectives.get(objective).per_slot else 1)
     require_memory(lattice_bytes(instance) + 2000.0 * columns, memory_limit, "the MILP and HiGHS")
     with watch(time_limit, memory_limit) as stop:
         run = _Run(instance, objective, verbose, stop, gap, threads)
-        run.incumbent.offer(*_warm_plan(instance, objective, warm_start, stop), source="warm start")
-        run.details["warm_start"] = "given" if warm_start is not None else "greedy"
+        status, bound = None, None
+        if instance.fleet:
+            status = _fleet_warm(run, warm_start)
+        else:
+            run.incumbent.offer(*_warm_plan(instance, objective, warm_start, stop), source="warm start")
+            run.details["warm_start"] = "given" if warm_start is not None else "greedy"
         run.details["warm_start_s"] = stop.elapsed()
-        if objectives.get(objective).per_slot:
+        if status is not None:  # a fleet without a first plan: proven infeasible, or stopped first
+            pass
+        elif objectives.get(objective).per_slot:
             status, bound = run.solve_mean()
         else:
             status, bound = run.solve_bisection()
@@ -110,6 +121,47 @@ def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None, stop
     left = stop.remaining()
     return check_plan(instance, greedy(instance, objective, time_limit=None if left is None else max(left, 1e-3),
                                        memory_limit=stop.memory_limit).plan)
+
+
+def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
+    """A fleet's first legal plan into the incumbent: the given one; else each robot's greedy
+    plan alone, if together they keep section 10's rules (a sensor serving two robots in one
+    slot stays with the first); else any plan of the path model. None once there is a plan,
+    "infeasible" when HiGHS proves there is none, "error" when stopped before either."""
+    inst = run.instance
+    if warm_start is not None:
+        run.incumbent.offer(*check_plan(inst, warm_start), source="warm start")
+        run.details["warm_start"] = "given"
+        return None
+    from voiopt.solvers.baselines import greedy
+
+    idx, sched = np.empty((2, inst.n_robots, inst.horizon), dtype=np.int64)
+    for k in range(inst.n_robots):
+        left = run.stop.remaining()
+        plan = greedy(inst.robot(k), run.objective, time_limit=None if left is None else max(left, 1e-3),
+                      memory_limit=run.stop.memory_limit).plan
+        idx[k], sched[k] = check_plan(inst.robot(k), plan)
+        sched[k, (sched[:k] == sched[k]).any(axis=0)] = -1
+    try:
+        run.incumbent.offer(*check_plan(inst, Plan.from_indices(inst, idx, sched)), source="warm start")
+        run.details["warm_start"] = "greedy (each robot alone)"
+        return None
+    except PlanError as e:
+        run.details["warm_start"] = f"path model (the robots' greedy plans conflict: {e})"
+    model = model_mod.build_covering(inst, run.objective, -math.inf)  # no cover rows: the paths alone
+    h = run.highs(model)
+    ms, info = run.run_highs(h)
+    if run.has_solution(h, info):
+        run.incumbent.offer(*model.plan_from_solution(np.asarray(h.getSolution().col_value)), source="warm start")
+        return None
+    import highspy
+
+    if ms == highspy.HighsModelStatus.kInfeasible:
+        run.details["note"] = ("no legal joint plan: the robots cannot all keep their ends and budgets without sharing "
+                               "a point or swapping points (MODEL.md section 10); HiGHS proved the path model infeasible")
+        return "infeasible"
+    run.details["note"] = f"stopped before any legal joint plan was found (HiGHS: {h.modelStatusToString(ms)})"
+    return "error"
 
 
 def _stopped_statuses() -> tuple:
