@@ -126,8 +126,11 @@ def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None, stop
 def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
     """A fleet's first legal plan into the incumbent: the given one; else each robot's greedy
     plan alone, if together they keep section 10's rules (a sensor serving two robots in one
-    slot stays with the first); else any plan of the path model. None once there is a plan,
-    "infeasible" when HiGHS proves there is none, "error" when stopped before either."""
+    slot stays with the first); else their repair: the plan of the path model (no cover rows)
+    that keeps most of their positions, moves and uploads, with "every robot stays at its
+    start" (legal when no robot has an end elsewhere: starts are distinct) offered first, so
+    a stop during the repair still has a plan. None once there is a plan, "infeasible" when
+    HiGHS proves there is none, "error" when stopped before either."""
     inst = run.instance
     if warm_start is not None:
         run.incumbent.offer(*check_plan(inst, warm_start), source="warm start")
@@ -147,8 +150,12 @@ def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
         run.details["warm_start"] = "greedy (each robot alone)"
         return None
     except PlanError as e:
-        run.details["warm_start"] = f"path model (the robots' greedy plans conflict: {e})"
+        run.details["warm_start"] = f"greedy repaired by the path model (the robots' greedy plans conflict: {e})"
+    if all(r.end is None or r.end == r.start for r in inst.robots):
+        stay = np.repeat(idx[:, :1], inst.horizon, axis=1)
+        run.incumbent.offer(*check_plan(inst, Plan.from_indices(inst, stay, np.full_like(stay, -1))), source="warm start")
     model = model_mod.build_covering(inst, run.objective, -math.inf)  # no cover rows: the paths alone
+    model.cost = model.solution_from_plan(idx, sched)  # maximise agreement with the greedy plans
     h = run.highs(model)
     ms, info = run.run_highs(h)
     if run.has_solution(h, info):
@@ -156,6 +163,8 @@ def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
         return None
     import highspy
 
+    if run.incumbent.idx is not None:  # stopped during the repair: the solve stops with the stay plan
+        return None
     if ms == highspy.HighsModelStatus.kInfeasible:
         run.details["note"] = ("no legal joint plan: the robots cannot all keep their ends and budgets without sharing "
                                "a point or swapping points (MODEL.md section 10); HiGHS proved the path model infeasible")
