@@ -154,14 +154,24 @@ def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
     if all(r.end is None or r.end == r.start for r in inst.robots):
         stay = np.repeat(idx[:, :1], inst.horizon, axis=1)
         run.incumbent.offer(*check_plan(inst, Plan.from_indices(inst, stay, np.full_like(stay, -1))), source="warm start")
-    model = model_mod.build_covering(inst, run.objective, -math.inf)  # no cover rows: the paths alone
-    model.cost = model.solution_from_plan(idx, sched)  # maximise agreement with the greedy plans
-    h = run.highs(model)
-    ms, info = run.run_highs(h)
-    if run.has_solution(h, info):
-        run.incumbent.offer(*model.plan_from_solution(np.asarray(h.getSolution().col_value)), source="warm start")
-        return None
     import highspy
+
+    model = model_mod.build_covering(inst, run.objective, -math.inf)  # no cover rows: the paths alone
+    left = run.remaining()
+    cap = REPAIR_S if left is None else min(left, max(1.0, REPAIR_SHARE * left))
+    # maximise agreement with the greedy plans within the cap, else any plan in the time left
+    for cost, limit in ((model.solution_from_plan(idx, sched), cap), (np.zeros(model.n_cols), None)):
+        model.cost = cost
+        h = run.highs(model)
+        if limit is not None:
+            h.setOptionValue("time_limit", limit)
+            h.setOptionValue("mip_rel_gap", REPAIR_GAP)
+        ms, info = run.run_highs(h)
+        if run.has_solution(h, info):
+            run.incumbent.offer(*model.plan_from_solution(np.asarray(h.getSolution().col_value)), source="warm start")
+            return None
+        if ms == highspy.HighsModelStatus.kInfeasible or run.stop.requested:
+            break
 
     if run.incumbent.idx is not None:  # stopped during the repair: the solve stops with the stay plan
         return None
@@ -424,6 +434,9 @@ class _Run:
         return bound
 
 
+# the repair of a fleet's conflicting greedy plans is a warm start, not the solve: at most this
+# share of the time left (at least 1 s; REPAIR_S without a limit), to this gap in agreement
+REPAIR_SHARE, REPAIR_S, REPAIR_GAP = 0.1, 10.0, 0.05
 WATCH_S = 0.05  # how often the stop rule is checked while HiGHS runs
 HIGHS_GRACE_S = 1.0  # how long HiGHS may take to honour a stop request
 _NO_INFO = SimpleNamespace(mip_dual_bound=math.inf, mip_gap=math.inf, primal_solution_status=0, mip_node_count=0)
