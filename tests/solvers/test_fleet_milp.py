@@ -156,3 +156,27 @@ def test_cli_solve_evaluate_and_export(tmp_path, capsys, optima):
         names = h.getLp().col_names_
         for prefix in ("x_r0_t", "x_r1_t", "f_r0_t", "f_r1_t", "o_t", "y_i"):  # docs/milp.md, "Several robots"
             assert any(n.startswith(prefix) for n in names), prefix
+
+
+def test_three_robots_following_each_other_in_a_line():
+    """Each robot moves into the point the next one leaves in the same slot: legal (not a
+    swap), and the only way to the ends, so the flow rows must allow it."""
+    d = voiopt.generate(3, 2, width=2.0, height=1.0, seed=5, name="line").to_dict()
+    del d["start"]
+    d["robots"] = [{"start": [0, 0], "end": [1, 0]}, {"start": [1, 0], "end": [2, 0]}, {"start": [2, 0], "end": [2, 1]}]
+    inst = from_dict(d)
+    for ob in OBJECTIVES:
+        r = solve(inst, ob)
+        assert r.status == "optimal" and len(r.plan.robots) == 3
+        assert r.value == pytest.approx(oracle.brute_force(d, ob)[0], rel=1e-9, abs=0)
+
+
+def test_one_robot_readers_of_the_model_refuse_a_fleet(tmp_path):
+    from voiopt.errors import OptionError
+    from voiopt.models import pyomo_model
+    from voiopt.models.milp.solution_file import import_solution
+
+    with pytest.raises(OptionError, match="2 robots"):
+        pyomo_model.build(CASES[0], "min-voi")
+    with pytest.raises(OptionError, match="2 robots"):
+        import_solution(CASES[0], "min-voi", tmp_path / "m.mps", tmp_path / "s.sol")
