@@ -5,6 +5,10 @@ median and maximum solve time, and the median proven gap of the networks not cer
 
     .venv/bin/python benchmarks/milp_scale.py                      # 40 networks, 60 s each
     .venv/bin/python benchmarks/milp_scale.py --networks 10 --time-limit 20 --objectives min-voi
+    .venv/bin/python benchmarks/milp_scale.py --robots 2 --horizon 20 --networks 5   # fleets (issue 14)
+
+With ``--robots K`` each network gets K - 1 more robots (MODEL.md section 10), robot j at the
+j-th lattice point of the sequence "mirror of the start, then the corners" that is not taken.
 """
 
 from __future__ import annotations
@@ -16,7 +20,25 @@ import sys
 import time
 
 import voiopt
+from voiopt.instance import from_dict
 from voiopt.objectives import OBJECTIVES
+
+
+def with_robots(inst: voiopt.Instance, k: int) -> voiopt.Instance:
+    """The network with k robots: its own start first, then distinct far points."""
+    if k == 1:
+        return inst
+    w, h = inst.width, inst.height
+    x, y = inst.start
+    spots = [(w - x, h - y), (0.0, 0.0), (w, h), (0.0, h), (w, 0.0)]
+    taken = [(x, y)]
+    for p in spots:
+        if len(taken) < k and p not in taken:
+            taken.append(p)
+    d = inst.to_dict()
+    del d["start"]
+    d["robots"] = [{"start": list(p)} for p in taken]
+    return from_dict(d)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,6 +49,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sensors", type=int, default=4)
     ap.add_argument("--horizon", type=int, default=30)
     ap.add_argument("--seed", type=int, default=2024)
+    ap.add_argument("--robots", type=int, default=1, choices=range(1, 6), metavar="K")
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--json", default=None, metavar="FILE", help="also write every result here")
     args = ap.parse_args(argv)
@@ -34,8 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     networks = voiopt.generate_set(
         args.networks, seed=args.seed, n_sensors=args.sensors, horizon=args.horizon, name="fig7"
     )
+    networks = [with_robots(inst, args.robots) for inst in networks]
     print(
-        f"MILP (HiGHS) on {args.networks} networks, N = {args.sensors}, T = {args.horizon}, 5 x 5, "
+        f"MILP (HiGHS) on {args.networks} networks, K = {args.robots}, N = {args.sensors}, T = {args.horizon}, 5 x 5, "
         f"rho ~ U(0, 1), P = 1 W; time limit {args.time_limit:g} s each",
         flush=True,
     )

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -147,3 +151,14 @@ def solve_model_file(model, solution=None):
     if solution is not None:
         h.writeSolution(str(solution), 0)
     return h
+
+
+@contextlib.contextmanager
+def sigint_after(seconds: float):
+    """Ctrl-C (SIGINT to this process) after ``seconds``, unless the block ends first."""
+    timer = threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()

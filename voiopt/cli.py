@@ -157,7 +157,8 @@ def cmd_solve(args) -> int:
         print(json.dumps(result.to_dict(), indent=2))
     elif not args.quiet:
         out.print(result.summary(), markup=False)
-        out.print(_metrics_table({args.method: result.metrics}) if result.metrics else "no plan")
+        out.print(_metrics_table({args.method: result.metrics}) if result.metrics else
+                  f"no plan{': ' + result.solver['note'] if result.solver.get('note') else ''}", markup=False)
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
     if result.status == "interrupted":  # the best plan is kept (and written), but the run did not finish

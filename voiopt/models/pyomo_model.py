@@ -18,14 +18,18 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import objectives
-from voiopt.errors import MissingExtraError
+from voiopt.errors import MissingExtraError, OptionError
 from voiopt.instance import Instance
 from voiopt.models import milp
 from voiopt.models.milp.solution import plan_from_columns
 
 
 def build(instance: Instance, objective: str, *, scale: float | None = None) -> Any:
-    """A ``pyomo.environ.ConcreteModel`` of the MILP; ``model.scale`` is the worth unit of z."""
+    """A ``pyomo.environ.ConcreteModel`` of the MILP; ``model.scale`` is the worth unit of z.
+    One robot only: a fleet's model is the array model's (``voiopt export`` writes it)."""
+    if instance.fleet:
+        raise OptionError(f"pyomo model: plans for one robot, but {instance.name} has {instance.n_robots} robots "
+                          "(export the fleet MILP with voiopt export instead)")
     try:
         import pyomo.environ as pyo
     except ImportError:

@@ -86,7 +86,7 @@ def structure(instance: Instance, kind: str) -> Structure:
     lat = lattice_mod.build(instance)
     T, N, n = instance.horizon, instance.n_sensors, lat.n_points
     ch = instance.channel
-    reach = lat.on_some_plan(np.arange(T))  # (T, n): on some legal plan (MODEL.md sections 2 and 9)
+    reach = _reach(instance)  # (T, n): on some legal plan of some robot (MODEL.md sections 2, 9, 10)
     x_col = np.full((T, n), -1, dtype=np.int64)
     x_col[reach] = np.arange(int(reach.sum()))
     n_x = int(reach.sum())
@@ -150,7 +150,7 @@ def structure(instance: Instance, kind: str) -> Structure:
     order = np.lexsort((up_sensor, up_point, up_slot))  # by slot, then point, then sensor
     up_sensor, up_slot, up_point, up_level = (a[order] for a in (up_sensor, up_slot, up_point, up_level))
     up_col = n_x + np.arange(len(up_sensor))
-    min_stays = max(0, T - 1 - lat.budget)
+    min_stays = 0 if instance.fleet else max(0, T - 1 - lat.budget)  # a fleet's budgets: models/milp/fleet.py
     if min_stays:  # s[p, t] for a point in both slots t-1 and t
         stay_slot, stay_point = np.nonzero(reach[1:] & reach[:-1])
         stay_slot = stay_slot + 1
@@ -161,3 +161,14 @@ def structure(instance: Instance, kind: str) -> Structure:
         instance, kind, T, n, x_col, n_x, up_sensor, up_slot, up_point, up_level, up_col,
         stay_slot, stay_point, stay_col, min_stays, worth0, level_worth, level_first,
     )
+
+
+def _reach(instance: Instance) -> np.ndarray:
+    """(T, n): the points some robot can stand on in slot t of some legal plan of its own; for
+    a fleet the upload (y) columns exist wherever any robot can stand, and which one stands
+    there is the fleet model's business."""
+    slots = np.arange(instance.horizon)
+    reach = lattice_mod.build(instance.robot(0)).on_some_plan(slots)
+    for k in range(1, instance.n_robots):
+        reach = reach | lattice_mod.build(instance.robot(k)).on_some_plan(slots)
+    return reach

@@ -10,6 +10,11 @@
 
 Every plan is re-simulated; the result's value is the simulator's. A time limit or Ctrl-C
 returns the best plan found (at worst the warm start) with the proven bound.
+
+Several robots (MODEL.md section 10) use the same two methods on the fleet model of
+models/milp/fleet.py; their first plan is the given one, else each robot's greedy plan if
+together they keep the rules between robots, else any plan of the path model, whose
+infeasibility is the status ``infeasible``.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import objectives
-from voiopt.errors import OptionError
+from voiopt.errors import OptionError, PlanError
 from voiopt.instance import Instance
 from voiopt.models import milp as model_mod
 from voiopt.objectives import DEFAULT, check_objective
@@ -78,14 +83,20 @@ def solve(
         raise OptionError(f"--gap: must be >= 0, got {gap:g}")
     check_threads(threads)
     T, n = instance.horizon, lattice_mod.n_points(instance)
-    columns = T * n + T * instance.n_sensors * points_in_range(instance) * (2 if objectives.get(objective).per_slot else 1)
+    columns = T * n * (1 + 6 * len(instance.fleet)) + T * instance.n_sensors * points_in_range(instance) * (2 if objectives.get(objective).per_slot else 1)
     require_memory(lattice_bytes(instance) + 2000.0 * columns, memory_limit, "the MILP and HiGHS")
     with watch(time_limit, memory_limit) as stop:
         run = _Run(instance, objective, verbose, stop, gap, threads)
-        run.incumbent.offer(*_warm_plan(instance, objective, warm_start, stop), source="warm start")
-        run.details["warm_start"] = "given" if warm_start is not None else "greedy"
+        status, bound = None, None
+        if instance.fleet:
+            status = _fleet_warm(run, warm_start)
+        else:
+            run.incumbent.offer(*_warm_plan(instance, objective, warm_start, stop), source="warm start")
+            run.details["warm_start"] = "given" if warm_start is not None else "greedy"
         run.details["warm_start_s"] = stop.elapsed()
-        if objectives.get(objective).per_slot:
+        if status is not None:  # a fleet without a first plan: proven infeasible, or stopped first
+            pass
+        elif objectives.get(objective).per_slot:
             status, bound = run.solve_mean()
         else:
             status, bound = run.solve_bisection()
@@ -110,6 +121,66 @@ def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None, stop
     left = stop.remaining()
     return check_plan(instance, greedy(instance, objective, time_limit=None if left is None else max(left, 1e-3),
                                        memory_limit=stop.memory_limit).plan)
+
+
+def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
+    """A fleet's first legal plan into the incumbent: the given one; else each robot's greedy
+    plan alone, if together they keep section 10's rules (a sensor serving two robots in one
+    slot stays with the first); else their repair: the plan of the path model (no cover rows)
+    that keeps most of their positions, moves and uploads, with "every robot stays at its
+    start" (legal when no robot has an end elsewhere: starts are distinct) offered first, so
+    a stop during the repair still has a plan. None once there is a plan, "infeasible" when
+    HiGHS proves there is none, "error" when stopped before either."""
+    inst = run.instance
+    if warm_start is not None:
+        run.incumbent.offer(*check_plan(inst, warm_start), source="warm start")
+        run.details["warm_start"] = "given"
+        return None
+    from voiopt.solvers.baselines import greedy
+
+    idx, sched = np.empty((2, inst.n_robots, inst.horizon), dtype=np.int64)
+    for k in range(inst.n_robots):
+        left = run.stop.remaining()
+        plan = greedy(inst.robot(k), run.objective, time_limit=None if left is None else max(left, 1e-3),
+                      memory_limit=run.stop.memory_limit).plan
+        idx[k], sched[k] = check_plan(inst.robot(k), plan)
+        sched[k, (sched[:k] == sched[k]).any(axis=0)] = -1
+    try:
+        run.incumbent.offer(*check_plan(inst, Plan.from_indices(inst, idx, sched)), source="warm start")
+        run.details["warm_start"] = "greedy (each robot alone)"
+        return None
+    except PlanError as e:
+        run.details["warm_start"] = f"greedy repaired by the path model (the robots' greedy plans conflict: {e})"
+    if all(r.end is None or r.end == r.start for r in inst.robots):
+        stay = np.repeat(idx[:, :1], inst.horizon, axis=1)
+        run.incumbent.offer(*check_plan(inst, Plan.from_indices(inst, stay, np.full_like(stay, -1))), source="warm start")
+    import highspy
+
+    model = model_mod.build_covering(inst, run.objective, -math.inf)  # no cover rows: the paths alone
+    left = run.remaining()
+    cap = REPAIR_S if left is None else min(left, max(1.0, REPAIR_SHARE * left))
+    # maximise agreement with the greedy plans within the cap, else any plan in the time left
+    for cost, limit in ((model.solution_from_plan(idx, sched), cap), (np.zeros(model.n_cols), None)):
+        model.cost = cost
+        h = run.highs(model)
+        if limit is not None:
+            h.setOptionValue("time_limit", limit)
+            h.setOptionValue("mip_rel_gap", REPAIR_GAP)
+        ms, info = run.run_highs(h)
+        if run.has_solution(h, info):
+            run.incumbent.offer(*model.plan_from_solution(np.asarray(h.getSolution().col_value)), source="warm start")
+            return None
+        if ms == highspy.HighsModelStatus.kInfeasible or run.stop.requested:
+            break
+
+    if run.incumbent.idx is not None:  # stopped during the repair: the solve stops with the stay plan
+        return None
+    if ms == highspy.HighsModelStatus.kInfeasible:
+        run.details["note"] = ("no legal joint plan: the robots cannot all keep their ends and budgets without sharing "
+                               "a point or swapping points (MODEL.md section 10); HiGHS proved the path model infeasible")
+        return "infeasible"
+    run.details["note"] = f"stopped before any legal joint plan was found (HiGHS: {h.modelStatusToString(ms)})"
+    return "error"
 
 
 def _stopped_statuses() -> tuple:
@@ -363,6 +434,9 @@ class _Run:
         return bound
 
 
+# the repair of a fleet's conflicting greedy plans is a warm start, not the solve: at most this
+# share of the time left (at least 1 s; REPAIR_S without a limit), to this gap in agreement
+REPAIR_SHARE, REPAIR_S, REPAIR_GAP = 0.1, 10.0, 0.05
 WATCH_S = 0.05  # how often the stop rule is checked while HiGHS runs
 HIGHS_GRACE_S = 1.0  # how long HiGHS may take to honour a stop request
 _NO_INFO = SimpleNamespace(mip_dual_bound=math.inf, mip_gap=math.inf, primal_solution_status=0, mip_node_count=0)

@@ -3,6 +3,7 @@
 - formulation: the rows and columns (``build`` for one objective, ``build_covering`` for a
   threshold of the bisection), in terms of the upload levels of models/uploads.py;
 - model: the arrays of one MILP, names, and a plan as a column vector;
+- fleet: the paths of several robots (MODEL.md section 10) beside the one-robot path rows;
 - solution: a plan read off a solution;
 - export: MPS or LP files.
 """

@@ -37,6 +37,7 @@ import numpy as np
 from voiopt import lattice as lattice_mod
 from voiopt import objectives
 from voiopt.instance import Instance
+from voiopt.models.milp import fleet
 from voiopt.models.milp.model import LevelTerms, Model, _Triplets
 from voiopt.models.uploads import Structure, structure
 
@@ -61,7 +62,13 @@ def _path_rows(st: Structure, tr: _Triplets) -> None:
         cols = np.concatenate([st.x_col[t, pts], prev[r, k]])
         vals = np.concatenate([np.ones(len(pts)), -np.ones(len(r))])
         tr.add(rows, cols, vals, np.full(len(pts), -np.inf), 0.0, name=f"move_t{t}_")
-    # sum_i y[i, t, p] <= x[p, t]
+    _tdma_rows(st, tr)
+    _budget_rows(st, tr)
+
+
+def _tdma_rows(st: Structure, tr: _Triplets) -> None:
+    """sum_i y[i, t, p] <= x[p, t]: upload only where you stand, one sensor a slot (for a fleet
+    x[p, t] is the occupancy of p, at most one robot)."""
     if st.n_uploads:
         key = st.up_slot * st.n_points + st.up_point
         keys, row = np.unique(key, return_inverse=True)
@@ -70,7 +77,18 @@ def _path_rows(st: Structure, tr: _Triplets) -> None:
         cols = np.concatenate([st.up_col, st.x_col[t_k, p_k]])
         vals = np.concatenate([np.ones(st.n_uploads), -np.ones(len(keys))])
         tr.add(rows, cols, vals, np.full(len(keys), -np.inf), 0.0, name="tdma")
-    _budget_rows(st, tr)
+
+
+def _path(st: Structure, tr: _Triplets) -> tuple[np.ndarray, np.ndarray, np.ndarray, fleet.FleetColumns | None]:
+    """Columns (bounds, integrality) and rows of the path and schedule: one robot's, or a
+    fleet's (models/milp/fleet.py, with these TDMA rows over its occupancy columns)."""
+    if st.instance.fleet:
+        *cols, fleet_cols = fleet.path(st, tr)
+        _tdma_rows(st, tr)
+        return (*cols, fleet_cols)
+    lower, upper, integrality = _base_columns(st)
+    _path_rows(st, tr)
+    return lower, upper, integrality, None
 
 
 def _budget_rows(st: Structure, tr: _Triplets) -> None:
@@ -162,9 +180,8 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     lt = level_terms(st, per_slot)
     h_i, h_t, h_inc = lt.sensor, lt.slot, lt.increment
 
-    lower, upper, base_integrality = _base_columns(st)
     tr = _Triplets()
-    _path_rows(st, tr)
+    lower, upper, base_integrality, fleet_cols = _path(st, tr)
     n_base = len(lower)
     h_col = n_base + np.arange(len(h_i))
     n_z = T if per_slot else 1
@@ -210,7 +227,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     model = Model(
         st, objective, "per-slot" if per_slot else "single", scale, col_lower, col_upper, cost,
         integrality, np.concatenate(tr.lower), np.concatenate(tr.upper), tr.matrix(len(col_lower)),
-        z_cols, np.concatenate(tr.z_of), lt, h_col, tuple(tr.blocks),
+        z_cols, np.concatenate(tr.z_of), lt, h_col, tuple(tr.blocks), fleet_cols,
     )
     return model
 
@@ -222,9 +239,8 @@ def build_covering(instance: Instance, objective: str, threshold: float) -> Mode
     of i before t at a level whose worth at t is >= threshold."""
     kind = objectives.get(objective).worth
     st = structure(instance, kind)
-    lower, upper, integrality = _base_columns(st)
     tr = _Triplets()
-    _path_rows(st, tr)
+    lower, upper, integrality, fleet_cols = _path(st, tr)
     rows, cols, n_cover = [], [], 0
     for i in range(st.n_sensors):
         need = np.flatnonzero(st.worth0[1:, i] < threshold) + 1
@@ -251,5 +267,5 @@ def build_covering(instance: Instance, objective: str, threshold: float) -> Mode
     return Model(
         st, objective, "covering", 1.0, lower, upper, np.zeros(n), integrality,
         np.concatenate(tr.lower), np.concatenate(tr.upper), tr.matrix(n), np.zeros(0, np.int64),
-        np.concatenate(tr.z_of), row_blocks=tuple(tr.blocks),
+        np.concatenate(tr.z_of), row_blocks=tuple(tr.blocks), fleet=fleet_cols,
     )

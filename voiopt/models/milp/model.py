@@ -10,8 +10,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from voiopt.models.milp import fleet as fleet_mod
 from voiopt.models.milp.solution import (
-    best_level_before,
+    best_level_of,
     clean_schedule,
     plan_from_columns,
     upload_ids,
@@ -74,6 +75,7 @@ class Model:
     levels: LevelTerms | None = None
     h_cols: np.ndarray | None = None
     row_blocks: tuple[tuple[str, int], ...] = ()
+    fleet: fleet_mod.FleetColumns | None = None  # several robots (models/milp/fleet.py), else None
 
     @property
     def n_cols(self) -> int:
@@ -89,7 +91,8 @@ class Model:
 
     def col_names(self) -> list[str]:
         """x_t<slot>_p<point>, y_i<sensor>_t<slot>_p<point>, s_t<slot>_p<point> (stays, with a
-        budget), H_i<sensor>_t<slot>_l<level>, z_t<slot>."""
+        budget), H_i<sensor>_t<slot>_l<level>, z_t<slot>; a fleet's columns are named by
+        FleetColumns.name."""
         st = self.structure
         names = [""] * self.n_cols
         for t, p in zip(*np.nonzero(st.x_col >= 0), strict=True):
@@ -104,6 +107,8 @@ class Model:
                 names[c] = f"H_i{lt.sensor[e]}_t{lt.slot[e]}_l{lt.level[e]}"
         for k, c in enumerate(self.z_cols):
             names[c] = f"z_t{k + 1}" if len(self.z_cols) > 1 else "z"
+        if self.fleet is not None:
+            self.fleet.name(names, st)
         return names
 
     def row_names(self) -> list[str]:
@@ -154,21 +159,28 @@ class Model:
     # -------------------------------------------------------------- plans and solutions
 
     def plan_from_solution(self, col_value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(point indices, schedule with -1) of a solution vector of this model."""
+        """(point indices, schedule with -1) of a solution vector of this model: (T,) arrays,
+        or (K, T) for a fleet."""
+        if self.fleet is not None:
+            return fleet_mod.plan_from_columns(self.structure, self.fleet, col_value)
         return plan_from_columns(self.structure, col_value)
 
     def solution_from_plan(self, idx: np.ndarray, sched: np.ndarray) -> np.ndarray:
         """A full column vector for a plan (its uploads cleaned first): x, y, H and z."""
         st = self.structure
-        sched = clean_schedule(st, idx, sched)
-        col = np.zeros(self.n_cols)
-        col[st.x_col[np.arange(st.horizon), idx]] = 1.0
-        stays = idx[st.stay_slot] == idx[st.stay_slot - 1]
-        col[st.stay_col[stays & (idx[st.stay_slot] == st.stay_point)]] = 1.0
-        for u in upload_ids(st, idx, sched):
-            col[st.up_col[u]] = 1.0
+        if self.fleet is not None:
+            col, best = fleet_mod.path_columns(st, self.fleet, self.n_cols, idx, sched)
+        else:
+            sched = clean_schedule(st, idx, sched)
+            col = np.zeros(self.n_cols)
+            col[st.x_col[np.arange(st.horizon), idx]] = 1.0
+            stays = idx[st.stay_slot] == idx[st.stay_slot - 1]
+            col[st.stay_col[stays & (idx[st.stay_slot] == st.stay_point)]] = 1.0
+            ids = upload_ids(st, idx, sched)
+            for u in ids:
+                col[st.up_col[u]] = 1.0
+            best = best_level_of(st, ids)  # (T+1, N)
         if self.levels is not None:
-            best = best_level_before(st, idx, sched)  # (T+1, N)
             lt = self.levels
             col[self.h_cols] = (best[lt.slot, lt.sensor] >= lt.level).astype(float)
         if len(self.z_cols):

@@ -32,9 +32,15 @@ def upload_ids(st: Structure, idx: np.ndarray, sched: np.ndarray) -> list[int]:
 
 def best_level_before(st: Structure, idx: np.ndarray, sched: np.ndarray) -> np.ndarray:
     """(T+1, N): the highest level any upload of sensor i reached before slot t (-1: none)."""
+    return best_level_of(st, upload_ids(st, idx, sched))
+
+
+def best_level_of(st: Structure, ids) -> np.ndarray:
+    """(T+1, N): the highest level any of the uploads ``ids`` of sensor i reached before slot t
+    (-1: none); the uploads of one robot's plan or of a whole fleet's."""
     T, N = st.horizon, st.n_sensors
     best = np.full((T + 1, N), -1, dtype=np.int64)
-    for u in upload_ids(st, idx, sched):
+    for u in ids:
         s, i = st.up_slot[u], st.up_sensor[u]
         best[s + 1:, i] = np.maximum(best[s + 1:, i], st.up_level[u])
     return best

@@ -75,6 +75,9 @@ def import_solution(instance: Instance, objective: str, model: str | os.PathLike
                     solution: str | os.PathLike) -> Result:
     """A result (method "import") from the solution of the model ``voiopt export`` wrote."""
     objectives.check_objective(objective)
+    if instance.fleet:
+        raise OptionError(f"import-solution: reads one robot's x_t<slot>_p<point> columns, but {instance.name} has "
+                          f"{instance.n_robots} robots (solve the fleet with voiopt solve --method milp)")
     st = structure(instance, objectives.get(objective).worth)
     names = path_names(st)
     in_model = model_names(model)
