@@ -124,7 +124,8 @@ def _warm_plan(instance: Instance, objective: str, warm_start: Plan | None, stop
 
 
 def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
-    """A fleet's first legal plan into the incumbent: the given one; else each robot's greedy
+    """A fleet's first legal plan into the incumbent: the given one; else the fleet greedy's
+    (baselines.greedy plans jointly, without conflicts); if it found none, each robot's greedy
     plan alone, if together they keep section 10's rules (a sensor serving two robots in one
     slot stays with the first); else their repair: the plan of the path model (no cover rows)
     that keeps most of their positions, moves and uploads, with "every robot stays at its
@@ -138,6 +139,13 @@ def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
         return None
     from voiopt.solvers.baselines import greedy
 
+    left = run.stop.remaining()
+    joint = greedy(inst, run.objective, time_limit=None if left is None else max(left, 1e-3),
+                   memory_limit=run.stop.memory_limit)
+    if joint.plan is not None:  # the fleet greedy's conflict-free joint plan
+        run.incumbent.offer(*check_plan(inst, joint.plan), source="warm start")
+        run.details["warm_start"] = "greedy"
+        return None
     idx, sched = np.empty((2, inst.n_robots, inst.horizon), dtype=np.int64)
     for k in range(inst.n_robots):
         left = run.stop.remaining()
