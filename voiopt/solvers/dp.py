@@ -17,7 +17,7 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import objectives, physics
-from voiopt.errors import VoioptError
+from voiopt.errors import OptionError, VoioptError
 from voiopt.instance import Instance
 from voiopt.objectives import check_objective
 from voiopt.plan import Plan
@@ -374,6 +374,17 @@ def solve(
     needs more than ``fast_budget`` labels it is abandoned, incumbents are computed (greedy and
     a beam pass of width ``beam``) and a bounded pass proves the optimum. ``greedy``,
     ``collapse`` and ``bounding`` switch ingredients off for measurements (docs/dp.md)."""
+    if instance.fleet:  # several robots: the joint programme (docs/dp.md, "Several robots")
+        from voiopt.solvers import fleet_dp
+
+        one_robot = dict(greedy=(greedy, True), collapse=(collapse, True), tdma=(tdma, True),
+                         pair_bound=(pair_bound, True), fast_budget=(fast_budget, FAST_BUDGET),
+                         quick_beam=(quick_beam, QUICK_BEAM))
+        for key, (given, default) in one_robot.items():
+            if given != default:
+                raise OptionError(f"--{key.replace('_', '-')}: an option of the one-robot dp, not of dp for several robots")
+        return fleet_dp.solve(instance, objective, progress=progress, time_limit=time_limit, memory_limit=memory_limit,
+                              warm_start=warm_start, beam=beam, bounding=bounding)
     check_objective(objective)
     check_limits(time_limit, memory_limit)
     require_memory(table_bytes(instance), memory_limit, "dp's tables")
