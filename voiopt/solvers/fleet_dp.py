@@ -21,8 +21,8 @@ from voiopt.objectives import check_objective
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
+from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, table_bytes, watched
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, require_memory
-from voiopt.solvers.dp import CHUNK_WORK, Tables, _watched, build_tables, table_bytes
 from voiopt.stop import GB, Stop, watch
 
 MAX_ROBOTS = 2  # the product state of three robots on any useful grid is out of reach
@@ -130,7 +130,7 @@ def search(jt: Joint, incumbent: float, stop: Stop, *, beam: int = 0, uploads: b
                 while b_hi < n * n and total + work[b_hi] <= CHUNK_WORK:
                     total += work[b_hi]
                     b_hi += 1
-                part = _watched(stop, core.expand, tab.mode, t, ranks[idx], acc[idx], ub[idx], left0[idx], left1[idx],
+                part = watched(stop, core.expand, tab.mode, t, ranks[idx], acc[idx], ub[idx], left0[idx], left1[idx],
                                 off, tab.neighbors, tab.up_rank, tab.in_range_list, tab.in_range_count, tab.W,
                                 tab.best_rank, jt.to_end[0], jt.to_end[1], incumbent, b_lo, b_hi, beam, uploads)
                 used = tab.nbytes + stored + sum(p[0].nbytes + p[1].nbytes + p[2].nbytes for p in parts)
@@ -215,14 +215,11 @@ _WARM = False
 
 
 def warm_up() -> float:
-    """Compile (or load from numba's cache) the kernels, the one-robot ones too, on a tiny
-    two-robot instance, so that runtime_s and the time limit measure the search alone."""
+    """Compile (or load from numba's cache) the kernels on a tiny two-robot instance once per
+    process, so that runtime_s and the time limit measure the search alone."""
     global _WARM
-    from voiopt.solvers import dp
-
-    startup_s = dp.warm_up()
     if _WARM:
-        return startup_s
+        return 0.0
     _WARM = True
     import time
 
@@ -237,7 +234,7 @@ def warm_up() -> float:
     tiny = from_dict(d)
     for objective in OBJECTIVES:
         solve(tiny, objective)
-    return startup_s + time.perf_counter() - t0
+    return time.perf_counter() - t0
 
 
 def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, progress) -> Result:
