@@ -8,8 +8,11 @@ import copy
 import functools
 import json
 import math
+import os
+import signal
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
@@ -225,3 +228,29 @@ def test_time_limit_stops_with_a_legal_plan():
     assert r.status == "time_limit" and elapsed < 2.0
     assert voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value  # legal, and its value is the simulator's
     assert r.bound is None or r.bound >= r.value
+
+
+def test_memory_limit_and_ctrl_c_stop_with_a_legal_plan():
+    """A memory limit the product state fits but the labels do not, and a Ctrl-C during the
+    search: each stops with its status and a legal plan (the simulator checks it)."""
+    inst = fleet(4, 15, 4, 3, [(0, 0), (4, 4)])
+    limit = fleet_dp.joint_bytes(inst) * 1.5 / 1e9
+    r = voiopt.solve(inst, method="dp", objective="mean-min-voi", memory_limit=limit)
+    assert r.status == "memory_limit" and r.solver["stopped"] == f"memory limit of {limit:g} GB reached"
+    assert voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value
+    big = fleet(6, 30, 5, 3, [(0, 0), (5, 5)])
+    fleet_dp.warm_up()
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    t0 = time.perf_counter()
+    timer.start()
+    try:
+        r = voiopt.solve(big, method="dp", objective="mean-min-voi", beam=0)
+    finally:
+        timer.cancel()
+    assert r.status == "interrupted" and time.perf_counter() - t0 < 2.0
+    assert voiopt.evaluate(big, r.plan)["mean-min-voi"] == r.value
+
+
+def test_one_robot_options_are_refused_for_a_fleet():
+    with pytest.raises(OptionError, match="--collapse: an option of the one-robot dp"):
+        voiopt.solve(CASES[0], method="dp", objective="min-voi", collapse=False)

@@ -240,8 +240,10 @@ def solve(
         for key, (given, default) in one_robot.items():
             if given != default:
                 raise OptionError(f"--{key.replace('_', '-')}: an option of the one-robot dp, not of dp for several robots")
+        # the beam: the one-robot default (labels per point) becomes the fleet's (per point pair)
         return fleet_dp.solve(instance, objective, progress=progress, time_limit=time_limit, memory_limit=memory_limit,
-                              warm_start=warm_start, beam=beam, bounding=bounding)
+                              warm_start=warm_start, beam=fleet_dp.FLEET_BEAM if beam == DEFAULT_BEAM else beam,
+                              bounding=bounding)
     check_objective(objective)
     check_limits(time_limit, memory_limit)
     require_memory(table_bytes(instance), memory_limit, "dp's tables")

@@ -23,11 +23,12 @@ from voiopt.result import Result
 from voiopt.simulate import simulate
 from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, table_bytes, watched
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, require_memory
-from voiopt.stop import GB, Stop, watch
+from voiopt.stop import GB, MEMORY_LIMIT, Stop, watch
 
 MAX_ROBOTS = 2  # the product state of three robots on any useful grid is out of reach
-FLEET_BEAM = 4  # labels per (point pair) bucket in the incumbent's beam pass
+FLEET_BEAM = 2  # labels per point pair in the incumbent's beam pass: wider costs more than it saves (docs/dp.md)
 LABEL_BYTES = 32  # a label kept for the parent pointers: parent 8, two uploads 4, two points 8, moves left 4, slack
+CANDIDATE_BYTES = 200  # a child in the kernel's buffers, besides its ranks (twice): key, values, record, output
 LIVE_BYTES = 24  # more per label of the live layer: acc 8, bound 8, and the offsets, besides its ranks
 
 
@@ -122,19 +123,23 @@ def search(jt: Joint, incumbent: float, stop: Stop, *, beam: int = 0, uploads: b
             off = np.concatenate([[0], np.cumsum(np.bincount(bucket[keep], minlength=n * n))])
             idx = np.flatnonzero(keep)  # labels are grouped by bucket already
             work = _work(jt, off, per_point)
+            layer = (ranks[idx], acc[idx], ub[idx], left0[idx], left1[idx])
             parts = []
             b_lo = 0
             while b_lo < n * n:
+                used = tab.nbytes + stored + 2 * ranks.nbytes + sum(p[0].nbytes + p[1].nbytes + p[2].nbytes for p in parts)
+                room = np.inf if stop.memory_bytes is None else (stop.memory_bytes - used) / (CANDIDATE_BYTES + 4 * N)
                 b_hi = b_lo + 1
                 total = work[b_lo]
-                while b_hi < n * n and total + work[b_hi] <= CHUNK_WORK:
+                while b_hi < n * n and total + work[b_hi] <= min(CHUNK_WORK, room):
                     total += work[b_hi]
                     b_hi += 1
-                part = watched(stop, core.expand, tab.mode, t, ranks[idx], acc[idx], ub[idx], left0[idx], left1[idx],
-                                off, tab.neighbors, tab.up_rank, tab.in_range_list, tab.in_range_count, tab.W,
+                if total > room:  # one bucket's children alone would pass the memory limit: stop before allocating
+                    stop.request(MEMORY_LIMIT)
+                    return _incomplete(out, ub, keep, t)
+                part = watched(stop, core.expand, tab.mode, t, *layer, off, tab.neighbors, tab.up_rank, tab.in_range_list, tab.in_range_count, tab.W,
                                 tab.best_rank, jt.to_end[0], jt.to_end[1], incumbent, b_lo, b_hi, beam, uploads)
-                used = tab.nbytes + stored + sum(p[0].nbytes + p[1].nbytes + p[2].nbytes for p in parts)
-                if part[5] or stop.check(used):
+                if part[5] or stop.check(used + sum(a.nbytes for a in part[:3])):
                     return _incomplete(out, ub, keep, t)
                 parts.append(part[:3])
                 out.generated += int(part[4])
@@ -146,7 +151,7 @@ def search(jt: Joint, incumbent: float, stop: Stop, *, beam: int = 0, uploads: b
             pos0, pos1 = rec[:, 3].astype(np.int32), rec[:, 4].astype(np.int32)
             left0, left1 = rec[:, 5].astype(np.int16), rec[:, 6].astype(np.int16)
             history.append((parent, up0, up1, pos0, pos1))
-            stored += sum(a.nbytes for a in history[-1]) + left0.nbytes + left1.nbytes
+            stored += sum(a.nbytes for a in history[-1])
             out.labels += len(acc)
             out.peak_layer = max(out.peak_layer, len(acc))
             out.peak_bytes = max(out.peak_bytes, stored + ranks.nbytes + acc.nbytes + ub.nbytes)
