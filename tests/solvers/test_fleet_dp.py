@@ -254,3 +254,14 @@ def test_memory_limit_and_ctrl_c_stop_with_a_legal_plan():
 def test_one_robot_options_are_refused_for_a_fleet():
     with pytest.raises(OptionError, match="--collapse: an option of the one-robot dp"):
         voiopt.solve(CASES[0], method="dp", objective="min-voi", collapse=False)
+
+
+def test_no_legal_joint_plan_is_infeasible():
+    """Ends that only a swap could reach: the loader admits the instance (each robot alone can
+    finish), the pass without uploads proves that no joint plan exists."""
+    d = {"area": {"width": 1, "height": 0.0001}, "step": 1, "horizon": 3, "channel": {"d_th": 0.4},
+         "robots": [{"start": [0, 0], "end": [1, 0]}, {"start": [1, 0], "end": [0, 0]}],
+         "sensors": [{"position": [1, 0], "rho": 0.5}]}
+    assert oracle.count_legal_plans(d) == 0
+    r = voiopt.solve(from_dict(d), method="dp", objective="min-voi")
+    assert r.status == "infeasible" and r.plan is None
