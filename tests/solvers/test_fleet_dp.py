@@ -228,6 +228,9 @@ def test_time_limit_stops_with_a_legal_plan():
     assert r.status == "time_limit" and elapsed < 2.0
     assert voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value  # legal, and its value is the simulator's
     assert r.bound is None or r.bound >= r.value
+    r = voiopt.solve(inst, method="dp", objective="min-voi", time_limit=1e-6)  # stopped before any search
+    assert r.status == "time_limit" and r.solver["incumbents"][0][0] == "legal"
+    assert voiopt.evaluate(inst, r.plan)["min-voi"] == r.value
 
 
 def test_memory_limit_and_ctrl_c_stop_with_a_legal_plan():
@@ -240,14 +243,14 @@ def test_memory_limit_and_ctrl_c_stop_with_a_legal_plan():
     assert voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value
     big = fleet(6, 30, 5, 3, [(0, 0), (5, 5)])
     fleet_dp.warm_up()
-    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer = threading.Timer(1.5, os.kill, (os.getpid(), signal.SIGINT))  # after the pass for a legal plan
     t0 = time.perf_counter()
     timer.start()
     try:
         r = voiopt.solve(big, method="dp", objective="mean-min-voi", beam=0)
     finally:
         timer.cancel()
-    assert r.status == "interrupted" and time.perf_counter() - t0 < 2.0
+    assert r.status == "interrupted" and time.perf_counter() - t0 < 3.0
     assert voiopt.evaluate(big, r.plan)["mean-min-voi"] == r.value
 
 

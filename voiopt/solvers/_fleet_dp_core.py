@@ -124,7 +124,8 @@ def expand(mode, t, ranks, acc, ub_in, left0, left1, off, nbr, up_rank, in_range
     budget and a way left to its own end; one upload per robot within range, a sensor to one
     robot. Returns the non-dominated children whose bound beats ``incumbent``, grouped by
     bucket: (ranks, (acc, bound), (parent, upload0, upload1, p0, p1, left0, left1), count per
-    bucket, children generated, halted). Gives up (halted, no children) once ``halt[0]`` is set."""
+    bucket, children generated, halted). Gives up (halted, no children) once ``halt[0]`` is set.
+    Without ``uploads`` (the pass that looks for a legal plan) no bound is computed (+inf)."""
     N = ranks.shape[1]
     n = nbr.shape[0]
     tau = t + 1
@@ -187,7 +188,7 @@ def expand(mode, t, ranks, acc, ub_in, left0, left1, off, nbr, up_rank, in_range
                             continue
                         generated += 1
                         a = _combine(mode, acc[l], _slot_worth(child, W, tau))
-                        ub = _bound2(mode, child, a, q0, q1, tau, W, best_rank)
+                        ub = _bound2(mode, child, a, q0, q1, tau, W, best_rank) if uploads else np.inf
                         if ub <= incumbent:
                             continue
                         c_rank[m] = child

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from voiopt import lattice as lattice_mod
-from voiopt.errors import OptionError
+from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
 from voiopt.objectives import check_objective
 from voiopt.progress import progress_bar
@@ -23,7 +23,7 @@ from voiopt.result import Result
 from voiopt.simulate import simulate
 from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, table_bytes, watched
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, require_memory
-from voiopt.stop import GB, MEMORY_LIMIT, Stop, watch
+from voiopt.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, watch
 
 MAX_ROBOTS = 2  # the product state of three robots on any useful grid is out of reach
 FLEET_BEAM = 2  # labels per point pair in the incumbent's beam pass: wider costs more than it saves (docs/dp.md)
@@ -257,10 +257,10 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
     if warm_start is not None:
         simulate(instance, warm_start)  # a PlanError names what breaks the rules
         offer(_indices(instance, warm_start), "warm_start")
-    first = passes["legal"] = search(jt, -np.inf, stop, uploads=False)  # a legal joint plan, if any
+    first = passes["legal"] = _legal_pass(jt, stop)
     if first.plan is not None:
         offer(first.plan, "legal")
-    elif first.complete:
+    else:
         return Result.from_plan(instance, "dp", objective, None, status="infeasible", runtime_s=stop.elapsed(),
                                 solver={"passes": {"legal": first.summary()}})
     if beam > 0 and not stop.requested:
@@ -271,8 +271,8 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
         Pass(-np.inf, None, False, np.inf)
     if out.plan is not None:
         offer(out.plan, "dp")
-    if best.value is None:
-        raise OptionError(f"dp: stopped ({stop.describe()}) before a legal joint plan was found")
+    if best.value is None:  # cannot be: the legal pass gave a plan
+        raise RuntimeError("dp: no plan after the legal pass found one")
     value = best.value * scale
     if out.complete:
         bound, status = max(value, out.value), "optimal"
@@ -289,6 +289,22 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
     return Result.from_plan(instance, "dp", objective, best.plan, status=status,
                             bound=None if not np.isfinite(bound) else bound / scale, runtime_s=stop.elapsed(),
                             solver=solver)
+
+
+def _legal_pass(jt: Joint, stop: Stop) -> Pass:
+    """A legal joint plan, or the proof that none exists: the pass without uploads, whose labels
+    are at most one per (slot, point pair, moves left) state. A stop must return a plan, so this
+    pass alone runs past the time limit (it is small: 30,000 labels, 0.35 s, on 6 x 6 points
+    at T = 30); Ctrl-C and the memory limit still end it, as errors: there is no plan to return."""
+    with watch(None, stop.memory_limit) as own:
+        out = search(jt, -np.inf, own, uploads=False)
+    if own.reason == INTERRUPTED:
+        stop.request(INTERRUPTED, own.signal)
+        raise Interrupted(own.signal)
+    if own.reason is not None:
+        raise MemoryLimitError(f"--memory-limit: dp for two robots found no legal joint plan within "
+                               f"{stop.memory_limit:g} GB (raise --memory-limit, or make the instance smaller)")
+    return out
 
 
 def _indices(instance: Instance, plan) -> tuple[np.ndarray, np.ndarray]:
