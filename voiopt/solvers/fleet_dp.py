@@ -76,9 +76,11 @@ def check_fleet(instance: Instance, memory_limit: float | None) -> None:
 
 def build_joint(instance: Instance, objective: str) -> Joint:
     tab = build_tables(instance.robot(0), objective)  # ranks and worths are the network's, not a robot's
+    # to_end as a fresh writable copy whether or not the robot has an end: one array type, so
+    # the kernels compile once (a read-only array is another numba type: a compile in the search)
     lats = [lattice_mod.build(instance.robot(k)) for k in range(2)]
     return Joint(tab, (lats[0].start, lats[1].start), (lats[0].budget, lats[1].budget),
-                 tuple(np.ascontiguousarray(lat.to_end, dtype=np.int64) for lat in lats), lats[0].n_points)
+                 tuple(np.array(lat.to_end, dtype=np.int64) for lat in lats), lats[0].n_points)
 
 
 @dataclass
