@@ -67,10 +67,14 @@ def merged_optimum(d: dict, objective: str, rules: bool = True) -> float:
         if t == T - 1:
             return [(cur, used)]
         if rules:
-            return list(oracle._joint_moves(inst, dists, t, cur, used))
-        each = [list(oracle._joint_moves(alone[k], [dists[k]], t, (cur[k],), (used[k],))) for k in range(K)]
-        return [(tuple(m[0][0] for m in combo), tuple(m[1][0] for m in combo))
-                for combo in oracle.itertools.product(*each)]
+            out = list(oracle._joint_moves(inst, dists, t, cur, used))
+        else:
+            each = [list(oracle._joint_moves(alone[k], [dists[k]], t, (cur[k],), (used[k],))) for k in range(K)]
+            out = [(tuple(m[0][0] for m in combo), tuple(m[1][0] for m in combo))
+                   for combo in oracle.itertools.product(*each)]
+        # the moves used matter only under a budget: elsewhere 0, so equal states merge
+        return [(p2, tuple(u if r.max_moves is not None else 0 for u, r in zip(u2, inst.robots, strict=True)))
+                for p2, u2 in out]
 
     voi = functools.cache(lambda i, a, q: oracle._voi(inst, i, a, q))
     layer = {(cur, used, tuple(s.a0 for s in inst.sensors), tuple(s.q0 for s in inst.sensors)):
