@@ -64,13 +64,19 @@ def networks(name: str, count: int, seed: int) -> list[voiopt.Instance]:
                                name=f"{name}-seed{seed}", **fields)
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--settings", default=",".join(SETTINGS), help=f"comma list of {', '.join(SETTINGS)}")
+def parser(doc: str, settings: dict) -> argparse.ArgumentParser:
+    """The options every scale benchmark shares: settings, networks, objectives, seed, time limit."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--settings", default=",".join(settings), help=f"comma list of {', '.join(settings)}")
     ap.add_argument("--networks", type=int, help="networks per setting (default: the setting's count)")
     ap.add_argument("--objectives", default=",".join(OBJECTIVES))
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--time-limit", type=float, help="override the settings' time limits (seconds)")
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = parser(__doc__, SETTINGS)
     ap.add_argument("--beam", type=int, default=dp.DEFAULT_BEAM, help="beam width of the incumbent pass (0: off)")
     ap.add_argument("--no-greedy", action="store_true", help="no greedy incumbent")
     ap.add_argument("--no-collapse", action="store_true", help="never collapse a sensor")

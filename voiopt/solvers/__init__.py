@@ -32,7 +32,7 @@ METHODS: dict[str, tuple[str, str]] = {
 RANDOMISED = frozenset({"qlearning", "aoi-qlearning"})
 
 # methods that plan for several robots (MODEL.md section 10); the others plan for one
-FLEET: frozenset[str] = frozenset({"milp", "qlearning", "aoi-qlearning", "shortest-path", "greedy"})
+FLEET: frozenset[str] = frozenset({"milp", "dp", "qlearning", "aoi-qlearning", "shortest-path", "greedy"})
 
 
 def check_robots(instance: Instance, method: str) -> None:
