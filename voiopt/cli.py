@@ -201,7 +201,8 @@ def cmd_figures(args) -> int:
     from voiopt.experiments.paper import make_figures
 
     files = make_figures(
-        args.out, networks=args.networks, episodes=args.episodes, time_limit=args.time_limit,
+        args.out, networks=args.networks, robot_networks=args.robot_networks, episodes=args.episodes,
+        time_limit=args.time_limit,
         memory_limit=args.memory_limit,
         seed=args.seed, seeds=args.seeds, reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
@@ -339,7 +340,10 @@ def build_parser() -> argparse.ArgumentParser:
     s = _command(sub, "figures", "reproduce the paper's figures with the proven optimum", cmd_figures)
     s.add_argument("--out", required=True, metavar="DIR")
     s.add_argument("--networks", type=int, default=40, help="networks per setting (default 40)")
-    s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="dp limit per network (default 60)")
+    s.add_argument("--robot-networks", type=int, default=10, metavar="N",
+                   help="networks per number of robots in Fig. 8 (default 10: joint Q-learning is slow)")
+    s.add_argument("--time-limit", type=float, default=60.0, metavar="S",
+                   help="dp limit per network, and milp's in Fig. 8 (default 60)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
     s.add_argument("--quiet", action="store_true")

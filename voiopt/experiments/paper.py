@@ -122,6 +122,7 @@ def make_figures(
     out_dir: str | os.PathLike,
     *,
     networks: int = 40,
+    robot_networks: int = 10,
     episodes: int | None = None,
     time_limit: float = 60.0,
     memory_limit: float = DEFAULT_MEMORY_GB,
@@ -133,12 +134,15 @@ def make_figures(
     progress: bool = False,
     case_study_instance: Instance | None = None,
 ) -> list[Path]:
-    """Reproduce Figs. 3-7 with the proven optimum; return the files written."""
+    """Reproduce Figs. 3-7 with the proven optimum, and Fig. 8 (several robots, ``robot_networks``
+    networks per number of robots); return the files written."""
     count_option(networks, "--networks")
+    count_option(robot_networks, "--robot-networks")
     opts = run_options(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes,
                        reward_units=reward_units, seeds=seeds, workers=workers)
     out = check_output_dir(out_dir, "--out")
-    check_manifest(out, {"command": "figures", "networks": networks, "seed": seed, "seeds": seeds, **opts}, "--out")
+    check_manifest(out, {"command": "figures", "networks": networks, "robot_networks": robot_networks, "seed": seed,
+                         "seeds": seeds, **opts}, "--out")
 
     # the case study (Figs. 3 and 4): the plans drawn are those of the first seed
     inst = case_study_instance or case_study()
@@ -155,7 +159,7 @@ def make_figures(
                                     group=f"{sweep.key} {sweep.x_label} = {v:g}", only=EXACT_ONLY, **opts)]
         sweep_tasks[sweep.key] = (sweep, insts, ts)
         tasks += ts
-    robot_insts = _sweep_instances(ROBOTS, networks, seed, out)
+    robot_insts = _sweep_instances(ROBOTS, robot_networks, seed, out)
     robot_tasks = [t for v in ROBOTS.values for p, i in robot_insts[v]
                    for t in method_tasks(i, p, list(ROBOT_METHODS), OBJECTIVE, out / "results" / ROBOTS.key, seed,
                                          seeds, group=f"{ROBOTS.key} K = {v:g}", only=ROBOT_EXACT, **opts)]
@@ -201,7 +205,7 @@ def make_figures(
             cells = {r["method"]: r for r in read_csv(csv_path) if float(r["x"]) == v}
             md.append(f"| {v:g} | " + " | ".join(f"{float(cells[m]['mean']):.4g}" if cells[m]["mean"] else "-" for m in SCHEMES)
                       + f" | {cells['dp']['certified']}/{cells['dp']['networks']} |")
-    written += _robots_figure(robot_insts, robot_tasks, networks, seed, seeds, reward_units, time_limit, out, md)
+    written += _robots_figure(robot_insts, robot_tasks, robot_networks, seed, seeds, reward_units, time_limit, out, md)
     md_path = out / "figures.md"
     with atomic_write(md_path) as f:
         f.write("\n".join(md) + "\n")
