@@ -25,7 +25,7 @@ def test_plot_a_result(tmp_path, capsys, case_study):
 def test_figures_smoke(tmp_path, capsys):
     out = tmp_path / "figs"
     assert main(["figures", "--out", str(out), "--networks", "2", "--robot-networks", "1", "--episodes", "2000",
-                 "--time-limit", "1"]) == 0
+                 "--time-limit", "0.3"]) == 0
     err = capsys.readouterr().err  # not a terminal: a line per finished setting
     assert "finished: case study" in err and "finished: fig7_nodes number of nodes N = 8 (" in err
     for name in ["fig3_case_study", "fig4_voi_over_time", *(s.key for s in SWEEPS)]:
