@@ -24,7 +24,7 @@ def test_plot_a_result(tmp_path, capsys, case_study):
 
 def test_figures_smoke(tmp_path, capsys):
     out = tmp_path / "figs"
-    assert main(["figures", "--out", str(out), "--networks", "2", "--robot-networks", "1", "--episodes", "2000",
+    assert main(["figures", "--out", str(out), "--networks", "1", "--robot-networks", "1", "--episodes", "2000",
                  "--time-limit", "0.3"]) == 0
     err = capsys.readouterr().err  # not a terminal: a line per finished setting
     assert "finished: case study" in err and "finished: fig7_nodes number of nodes N = 8 (" in err
@@ -38,7 +38,7 @@ def test_figures_smoke(tmp_path, capsys):
             rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
         assert any("sweep values" in h for h in header)
         assert len(rows) == len(sweep.values) * len(SCHEMES)
-        assert all(int(r["networks"]) == 2 and r["mean"] for r in rows)
+        assert all(int(r["networks"]) == 1 and r["mean"] for r in rows)
     md = (out / "figures.md").read_text()
     assert "fig7_nodes.png" in md and "proven optimum" in md
     with open(out / "fig8_robots.csv") as f:  # several robots: the optimum and every method per K

@@ -214,6 +214,7 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
     return MDP(
         instance, reward, float(penalty), reward_units, bool(slot_in_state), int(lat.start), initial_aoi, n_actions, action_upload,
         action_move, action_next, voi_reward, field_word, field_shift, np.array(widths, dtype=np.int64), n_words,
-        np.ascontiguousarray(lat.to_end, dtype=np.int64), int(lat.budget), bool(lat.end >= 0 or moves_in_state),
+        # to_end as a writable copy, with an end or without: one numba type, so one compile
+        np.array(lat.to_end, dtype=np.int64), int(lat.budget), bool(lat.end >= 0 or moves_in_state),
         moves_in_state,
     )

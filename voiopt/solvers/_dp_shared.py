@@ -137,7 +137,7 @@ def build_tables(instance: Instance, objective: str) -> Tables:
     to_internal = (T if mode == core.SUM else 1.0) * (-1.0 if aoi else 1.0)
     return Tables(mode, initial_rank, up_rank, W, best_rank, in_range_list, in_range_count,
                   np.ascontiguousarray(lat.neighbors, dtype=np.int64), lat.start, to_internal, objective,
-                  sensor_points, sensor_point_count, point_steps, np.ascontiguousarray(lat.to_end, dtype=np.int64),
+                  sensor_points, sensor_point_count, point_steps, np.array(lat.to_end, dtype=np.int64),  # writable: one numba type
                   lat.budget, int(lat.budget < T - 1))
 
 
