@@ -23,7 +23,7 @@ demo: $(STAMP)
 	$(BIN)/voiopt demo
 
 test: $(TSTAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2
 
 bench: $(TSTAMP)
 	$(BIN)/python benchmarks/run_all.py
