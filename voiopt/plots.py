@@ -88,6 +88,9 @@ def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -
     fleet = len(plan.robots) > 1
     for k, robot in enumerate(plan.robots):
         colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
+        # robots that pass the same points are drawn slightly apart (the offset is drawing only)
+        shift = (k - (len(plan.robots) - 1) / 2) * 0.09 * instance.step if fleet else 0.0
+        robot = Plan(tuple((x + shift, y + shift) for x, y in robot.positions), robot.schedule)
         pts = np.array(robot.positions)
         ax.plot(pts[:, 0], pts[:, 1], color=colour, lw=1.2, alpha=0.7, zorder=2, label=f"robot {k}" if fleet else None)
         ax.scatter(*pts[0], marker="s", s=70, facecolor="none", edgecolor="black" if not fleet else colour, zorder=5,

@@ -112,3 +112,15 @@ def test_generator_robots_and_dock(tmp_path):
     assert main(["evaluate", str(path), str(tmp_path / "r.json")]) == 0
     assert main(["generate", "--robots", "0"]) == 2
     assert main(["solve", str(path), "--method", "beam"]) == 2
+
+
+def test_the_shipped_fleet_example_is_what_the_readme_says():
+    from conftest import ROOT
+
+    inst = voiopt.load(ROOT / "instances" / "fleet.json")
+    assert (inst.n_robots, inst.n_sensors, inst.horizon) == (2, 5, 15)
+    assert all(r.end == r.start and r.max_moves == 10 for r in inst.robots)
+    assert abs(inst.robots[0].start[0] - inst.robots[1].start[0]) + abs(inst.robots[0].start[1]
+                                                                         - inst.robots[1].start[1]) == 1
+    r = voiopt.solve(inst, "greedy")
+    assert r.status == "feasible" and r.value == oracle.simulate(inst.to_dict(), r.plan.to_dict())["mean-min-voi"]
