@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 import statistics
+import sys
 
 import voiopt
 from voiopt.errors import VoioptError
@@ -51,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
         for inst in nets:
             best = None
             for m in EXACT:
-                r = _solve(inst, m, args.objective, time_limit=args.time_limit, threads=1)
+                r = _solve(inst, m, args.objective, time_limit=args.time_limit, **({"threads": 1} if m == "milp" else {}))
                 runs[m].append(r)
                 if r is not None and r.bound is not None:
                     best = r.bound if best is None else min(best, r.bound)
@@ -81,10 +82,11 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _solve(inst, method, objective, **opts):
-    """A Result, or None where the method declines the fleet (a one-line OptionError)."""
+    """A Result, or None where the method declines the fleet (a one-line OptionError, printed)."""
     try:
         return voiopt.solve(inst, method, objective, **opts)
-    except VoioptError:
+    except VoioptError as e:
+        print(f"  {inst.name} {method}: declined: {e}", file=sys.stderr, flush=True)
         return None
 
 
