@@ -4,6 +4,7 @@ and stopped by the usual limits. The generator's ``robots`` and ``dock`` options
 
 from __future__ import annotations
 
+import copy
 import json
 
 import numpy as np
@@ -125,3 +126,27 @@ def test_the_shipped_fleet_example_is_what_the_readme_says():
     r = voiopt.solve(inst, "greedy")
     assert r.status == "feasible"
     assert r.value == pytest.approx(oracle.simulate(inst.to_dict(), r.plan.to_dict())["mean-min-voi"], rel=1e-12)
+
+
+# From the review: robot 0 is drawn into a dead-end room (sensor 0) whose only door (4, 0) is
+# robot 1's end, which robot 1 reaches with its whole budget. A legal joint plan exists, but
+# greedy's walker spends its tries in the doomed subtree below the trap.
+TRAP = {
+    "name": "trap", "area": {"width": 6, "height": 1}, "horizon": 20,
+    "robots": [{"start": [3, 1], "end": [0, 0]}, {"start": [0, 1], "end": [4, 0], "max_moves": 5}],
+    "blocked": [[4, 1]],
+    "sensors": [{"position": [6, 1], "rho": 0.3}, {"position": [4, 0.2], "rho": 0.5}],
+}
+
+
+def test_a_trapped_walker_falls_back_to_dps_legal_paths_and_never_claims_infeasible(monkeypatch):
+    monkeypatch.setattr(fleet_baselines, "MAX_TRIES", 2000)
+    r = voiopt.solve(from_dict(TRAP), "greedy")
+    assert r.status == "feasible" and "dp's legal joint paths" in r.solver["walker"]
+    assert r.value == pytest.approx(oracle.simulate(TRAP, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
+    assert any(u is not None for robot in r.plan.robots for u in robot.schedule)  # uploads along the paths
+    three = copy.deepcopy(TRAP)  # three robots: no exact fallback, and no false claim either
+    three["area"]["height"] = 2
+    three["robots"].append({"start": [0, 2]})
+    r = voiopt.solve(from_dict(three), "greedy")
+    assert r.status in ("feasible", "error") and (r.status == "feasible" or "may still exist" in r.solver["note"])

@@ -28,11 +28,16 @@ from voiopt.simulate import advance
 from voiopt.stop import Stop
 
 MAX_JOINT_UPLOADS = 4096  # joint upload choices scored exhaustively per slot; above, robot by robot
-MAX_TRIES = 200_000  # joint moves the walker may try before it gives up
+MAX_TRIES = 20_000  # joint moves the walker may try before it gives up (about 15 s for greedy)
 
 
 class NoJointPlan(Exception):
-    """The walker found no conflict-free way through the horizon within MAX_TRIES."""
+    """The walker found no conflict-free way through the horizon: ``proved`` when it searched
+    every joint move (no legal plan exists), else it gave up after MAX_TRIES."""
+
+    def __init__(self, message: str, proved: bool) -> None:
+        super().__init__(message)
+        self.proved = proved
 
 
 def _lattices(instance: Instance) -> list[lattice_mod.Lattice]:
@@ -98,11 +103,11 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
             break  # the last slot: done
         tries += 1
         if tries > MAX_TRIES:
-            raise NoJointPlan(f"no conflict-free joint move found after {MAX_TRIES} tries (slot {t})")
+            raise NoJointPlan(f"the conflict-free walker gave up after {MAX_TRIES} joint moves (slot {t})", False)
         new_used = tuple(u + (a != b) for u, a, b in zip(used, cur, nxt, strict=True))
         open_frame(t + 1, nxt, new_used, on_move(state, cur, nxt))
     if not frames:
-        raise NoJointPlan("no conflict-free joint plan exists for these robots' starts, ends and budgets")
+        raise NoJointPlan("no conflict-free joint plan exists for these robots' starts, ends and budgets", True)
     idx = np.array([f[0] for f in frames], dtype=np.int64).T
     sched = np.array([f[2] for f in frames], dtype=np.int64).T
     return idx, sched
@@ -115,16 +120,56 @@ def _homeward(lats):
     return order
 
 
-def _result(instance, method, objective, stop, walk, solver) -> Result:
+def _result(instance, method, objective, stop, solver, state0, begin, prefer, on_move) -> Result:
+    """The walker's plan; if it gave up (a trap: some robot's way home blocked by another's
+    choices, found only after long backtracking), two robots' legal joint paths from dp's pass
+    without uploads (exact: it also proves there are none), with the heuristic's own uploads
+    along them."""
     try:
-        idx, sched = walk()
+        idx, sched = _walk(instance, stop, state0, begin, prefer, on_move)
     except NoJointPlan as e:
-        return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
-                                solver={**solver, "note": str(e)})
+        paths = None if e.proved else _legal_paths(instance, objective, stop)
+        if e.proved or (paths is not None and paths is False):
+            note = str(e) if e.proved else "no legal joint plan exists (dp's pass without uploads proved it)"
+            return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
+                                    solver={**solver, "note": note})
+        if paths is None:
+            return Result.from_plan(instance, method, objective, None, status="error", runtime_s=stop.elapsed(),
+                                    solver={**solver, "note": f"{e}; a legal plan may still exist (milp finds one)"})
+        idx, sched = paths, _uploads_along(paths, state0, begin, on_move)
+        solver["walker"] = f"{e}; uploads chosen along dp's legal joint paths instead"
     if stop.requested:
         solver["stopped"] = f"{stop.describe()}; the robots then head for their ends without uploads"
     return Result.from_plan(instance, method, objective, Plan.from_indices(instance, idx, sched),
                             status=stop.reason or "feasible", runtime_s=stop.elapsed(), solver=solver)
+
+
+def _legal_paths(instance: Instance, objective: str, stop: Stop):
+    """(2, T) legal joint paths for two robots by fleet_dp's exact pass without uploads; False
+    if it proves there are none; None where it does not apply (more robots, too large)."""
+    from voiopt.errors import VoioptError
+    from voiopt.solvers import fleet_dp
+
+    if instance.n_robots != 2:
+        return None
+    try:
+        fleet_dp.check_fleet(instance, stop.memory_limit)
+        out = fleet_dp.legal_pass(fleet_dp.build_joint(instance, objective), stop)
+    except VoioptError:
+        return None
+    return False if out.plan is None else np.asarray(out.plan[0], dtype=np.int64)
+
+
+def _uploads_along(idx: np.ndarray, state, begin, on_move) -> np.ndarray:
+    """The heuristic's uploads, slot by slot, along fixed joint paths (K, T)."""
+    sched = np.empty_like(idx)
+    for t in range(idx.shape[1]):
+        cur = tuple(int(p) for p in idx[:, t])
+        uploads, state = begin(t, cur, state)
+        sched[:, t] = uploads
+        if t + 1 < idx.shape[1]:
+            state = on_move(state, cur, tuple(int(p) for p in idx[:, t + 1]))
+    return sched
 
 
 # ------------------------------------------------------------------------- shortest path
@@ -213,8 +258,8 @@ def shortest_path(instance: Instance, objective: str, stop: Stop, seed: int, tou
                           for k, p in enumerate(pointers))
 
     state0 = (np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64), (0,) * instance.n_robots)
-    return _result(instance, "shortest-path", objective, stop,
-                   lambda: _walk(instance, stop, state0, begin, prefer, on_move), {**info, "seed": int(seed)})
+    return _result(instance, "shortest-path", objective, stop, {**info, "seed": int(seed)}, state0, begin, prefer,
+                   on_move)
 
 
 # ------------------------------------------------------------------------- greedy
@@ -267,8 +312,7 @@ def greedy(instance: Instance, objective: str, stop: Stop, slot, to_sensor: np.n
     solver = {"rule": "aoi" if aoi_objective else "voi", "lookahead": 1, "uploads": "joint"}
     state0 = (np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64),
               np.array([instance.initial_distance(i) for i in range(instance.n_sensors)]))
-    return _result(instance, "greedy", objective, stop, lambda: _walk(instance, stop, state0, begin, prefer, on_move),
-                   solver)
+    return _result(instance, "greedy", objective, stop, solver, state0, begin, prefer, on_move)
 
 
 def _advance_all(aoi, dist, uploads, cur, lat):

@@ -259,7 +259,7 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
     if warm_start is not None:
         simulate(instance, warm_start)  # a PlanError names what breaks the rules
         offer(_indices(instance, warm_start), "warm_start")
-    first = passes["legal"] = _legal_pass(jt, stop)
+    first = passes["legal"] = legal_pass(jt, stop)
     if first.plan is not None:
         offer(first.plan, "legal")
     else:
@@ -293,7 +293,7 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
                             solver=solver)
 
 
-def _legal_pass(jt: Joint, stop: Stop) -> Pass:
+def legal_pass(jt: Joint, stop: Stop) -> Pass:
     """A legal joint plan, or the proof that none exists: the pass without uploads, whose labels
     are at most one per (slot, point pair, moves left) state. A stop must return a plan, so this
     pass alone runs past the time limit (it is small: 30,000 labels, 0.35 s, on 6 x 6 points
