@@ -150,3 +150,22 @@ def test_a_trapped_walker_falls_back_to_dps_legal_paths_and_never_claims_infeasi
     three["robots"].append({"start": [0, 2]})
     r = voiopt.solve(from_dict(three), "greedy")
     assert r.status in ("feasible", "error") and (r.status == "feasible" or "may still exist" in r.solver["note"])
+
+
+SWAP_ONLY = {"name": "swap-only", "area": {"width": 2, "height": 1}, "horizon": 10,
+             "robots": [{"start": [0, 0], "end": [0, 1]}, {"start": [1, 1], "end": [0, 0]}],
+             "blocked": [[1, 0]],
+             "sensors": [{"position": [0.54, 0.8], "rho": 0.519}, {"position": [1.72, 0.4], "rho": 0.414}]}
+
+
+@pytest.mark.parametrize("method", [*METHODS, "milp"])
+def test_no_joint_plan_is_proved_within_the_time_limit(method):
+    """Only a swap would let these robots pass (the oracle counts no legal plan): after the
+    limit the walker stops backtracking, and dp's exact pass proves infeasibility."""
+    import time
+
+    assert oracle.count_legal_plans(SWAP_ONLY) == 0
+    start = time.perf_counter()
+    r = voiopt.solve(from_dict(SWAP_ONLY), method, time_limit=0.5)
+    assert r.status == "infeasible" and r.plan is None and "no legal joint plan" in r.solver["note"]
+    assert time.perf_counter() - start < 0.5 + 5.0  # the limit holds (generously: dp may load its kernels)

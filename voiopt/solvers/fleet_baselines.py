@@ -29,6 +29,7 @@ from voiopt.stop import Stop
 
 MAX_JOINT_UPLOADS = 4096  # joint upload choices scored exhaustively per slot; above, robot by robot
 MAX_TRIES = 20_000  # joint moves the walker may try before it gives up (about 15 s for greedy)
+MAX_TRIES_STOPPED = 500  # and once the stop rule has fired (then robots only head home)
 
 
 class NoJointPlan(Exception):
@@ -79,7 +80,7 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
     K, T = instance.n_robots, instance.horizon
     cur0 = tuple(lat.start for lat in lats)
     frames = []  # per slot t: (cur, used, uploads, state after uploads, options)
-    tries = 0
+    tries, stopped_at = 0, None
 
     def open_frame(t, cur, used, state):
         if stop.check():
@@ -102,8 +103,11 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
         if nxt is None:
             break  # the last slot: done
         tries += 1
-        if tries > MAX_TRIES:
-            raise NoJointPlan(f"the conflict-free walker gave up after {MAX_TRIES} joint moves (slot {t})", False)
+        if stop.requested and stopped_at is None:
+            stopped_at = tries
+        if tries > MAX_TRIES or stopped_at is not None and tries - stopped_at > MAX_TRIES_STOPPED:
+            raise NoJointPlan(f"the conflict-free walker gave up after {tries - 1} joint moves (slot {t}"
+                              f"{', stopped' if stopped_at is not None else ''})", False)
         new_used = tuple(u + (a != b) for u, a, b in zip(used, cur, nxt, strict=True))
         open_frame(t + 1, nxt, new_used, on_move(state, cur, nxt))
     if not frames:

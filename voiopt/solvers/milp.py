@@ -146,6 +146,9 @@ def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
         run.incumbent.offer(*check_plan(inst, joint.plan), source="warm start")
         run.details["warm_start"] = "greedy"
         return None
+    if joint.status == "infeasible":  # greedy only says so with a proof (an exhausted exact search)
+        run.details["note"] = f"no legal joint plan: {joint.solver.get('note')} (MODEL.md section 10)"
+        return "infeasible"
     idx, sched = np.empty((2, inst.n_robots, inst.horizon), dtype=np.int64)
     for k in range(inst.n_robots):
         left = run.stop.remaining()
