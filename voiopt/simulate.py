@@ -126,16 +126,20 @@ def _check_field_rules(instance: Instance, plan: Plan, idx: np.ndarray) -> None:
                             f"{instance.max_moves} (the plan makes {len(moved)} moves)")
 
 
-def advance(aoi: np.ndarray, q: np.ndarray, upload: int, q_upload) -> tuple[np.ndarray, np.ndarray]:
+def advance(aoi: np.ndarray, q: np.ndarray, upload, q_upload) -> tuple[np.ndarray, np.ndarray]:
     """One slot of MODEL.md section 3: (A(t+1), q(t+1)) from (A(t), q(t)) when sensor
     ``upload`` (or -1, none) uploads with effective distance ``q_upload``: every age grows by
     one, the uploaded sensor's age becomes 1 and its q the upload's. (q may hold distances or
-    any per-sensor label of them, such as the MDP's distance indices.)"""
+    any per-sensor label of them, such as the MDP's distance indices.) For several robots
+    (section 10) ``upload`` and ``q_upload`` hold one entry per robot, distinct sensors."""
     aoi = np.asarray(aoi) + 1
     q = np.array(q, copy=True)
-    if upload >= 0:
-        aoi[upload] = 1
-        q[upload] = q_upload
+    if np.ndim(upload) == 0:
+        upload, q_upload = (upload,), (q_upload,)
+    for u, d in zip(upload, q_upload, strict=True):
+        if u >= 0:
+            aoi[u] = 1
+            q[u] = d
     return aoi, q
 
 
@@ -154,12 +158,9 @@ def simulate_indices(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> 
     dist = np.empty((T + 1, N))
     aoi[0] = [s.initial_aoi for s in instance.sensors]
     dist[0] = [instance.initial_distance(i) for i in range(N)]
-    fleet_idx, fleet_sched = np.atleast_2d(idx), np.atleast_2d(sched)
     for t in range(T):
-        aoi[t + 1], dist[t + 1] = advance(aoi[t], dist[t], -1, 0.0)
-        for p, u in zip(fleet_idx[:, t], fleet_sched[:, t], strict=True):
-            if u >= 0:
-                aoi[t + 1, u], dist[t + 1, u] = 1, lat.distance[u, p]
+        u, p = sched[..., t], idx[..., t]  # a sensor and point, or one of each per robot
+        aoi[t + 1], dist[t + 1] = advance(aoi[t], dist[t], u, lat.distance[u, p])
     rho = np.array([s.rho for s in instance.sensors])
     power = np.array([s.power_w for s in instance.sensors])
     v = physics.voi(aoi, dist, rho, power, instance.channel)

@@ -129,11 +129,7 @@ class FleetMDP:
         acts = self.split(points, j)
         nxt = tuple(int(one.action_next[p, a]) for p, a in zip(points, acts, strict=True))
         up = [int(one.action_upload[p, a]) for p, a in zip(points, acts, strict=True)]
-        a, q = np.array(aoi, np.int64), np.array(qidx, np.int64)
-        a, q = advance(a, q, -1, 0)
-        for p, u in zip(points, up, strict=True):
-            if u >= 0:
-                a[u], q[u] = 1, 1 + p
+        a, q = advance(np.array(aoi, np.int64), np.array(qidx, np.int64), up, [1 + p for p in points])
         aoi, qidx = tuple(a.tolist()), tuple(q.tolist())
         slot = slot + 1 if one.slot_in_state else 0
         moves = tuple(m + (b != p) if c else 0

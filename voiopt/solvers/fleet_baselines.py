@@ -242,10 +242,7 @@ def shortest_path(instance: Instance, objective: str, stop: Stop, seed: int, tou
             u = max(near, key=lambda i: (aoi[i], -i)) if near else -1
             uploads.append(u)
             taken.add(u)
-        aoi = aoi + 1
-        for u in uploads:
-            if u >= 0:
-                aoi[u] = 1
+        aoi, _ = advance(aoi, aoi, uploads, [1] * len(uploads))  # ages only
         return uploads, (aoi, pointers)
 
     def prefer(t, cur, state):
@@ -276,9 +273,6 @@ def greedy(instance: Instance, objective: str, stop: Stop, slot, to_sensor: np.n
     lat = slot.lat
     reachable = np.isfinite(to_sensor).any(axis=1)
 
-    def score(a, q):
-        return slot.score(a, q)
-
     def begin(t, cur, state):
         aoi, dist = state
         options = [slot.uploads(p) for p in cur]
@@ -286,12 +280,12 @@ def greedy(instance: Instance, objective: str, stop: Stop, slot, to_sensor: np.n
         if math.prod(map(len, options)) <= MAX_JOINT_UPLOADS:
             joint = itertools.product(*options)
         else:  # robot by robot, each the best given those before it
-            joint = [_sequential(options, cur, aoi, dist, lat, score)]
+            joint = [_sequential(options, cur, aoi, dist, lat, slot.score)]
         for us in joint:
             if len({u for u in us if u >= 0}) < sum(u >= 0 for u in us):
                 continue  # a sensor uploads to at most one robot per slot
             a, q = _advance_all(aoi, dist, us, cur, lat)
-            key = score(a, q)
+            key = slot.score(a, q)
             if best is None or key > best[0]:
                 best = (key, us, a, q)
         return best[1], (best[2], best[3])
@@ -320,11 +314,7 @@ def greedy(instance: Instance, objective: str, stop: Stop, slot, to_sensor: np.n
 
 
 def _advance_all(aoi, dist, uploads, cur, lat):
-    a, q = advance(aoi, dist, -1, 0.0)
-    for u, p in zip(uploads, cur, strict=True):
-        if u >= 0:
-            a[u], q[u] = 1, lat.distance[u, p]
-    return a, q
+    return advance(aoi, dist, uploads, lat.distance[list(uploads), list(cur)])
 
 
 def _sequential(options, cur, aoi, dist, lat, score) -> tuple[int, ...]:
