@@ -75,7 +75,8 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
     (distinct sensors, -1 none) and the state after them; ``prefer(t, cur, state) -> f(k, ok)``
     orders robot k's legal next points; ``on_move(state, cur, nxt) -> state``. ``state`` is
     the heuristic's own (ages, distances, walk pointers; ``state0`` in slot 0), kept per slot
-    so that backtracking restores it. Once the stop rule fires, robots head for their ends without uploads."""
+    so that backtracking restores it. Once the stop rule fires, robots head for their ends
+    without uploads."""
     lats = _lattices(instance)
     K, T = instance.n_robots, instance.horizon
     cur0 = tuple(lat.start for lat in lats)
@@ -132,11 +133,15 @@ def _result(instance, method, objective, stop, solver, state0, begin, prefer, on
     try:
         idx, sched = _walk(instance, stop, state0, begin, prefer, on_move)
     except NoJointPlan as e:
-        paths = None if e.proved else _legal_paths(instance, objective, stop)
-        if e.proved or (paths is not None and paths is False):
-            note = str(e) if e.proved else "no legal joint plan exists (dp's pass without uploads proved it)"
+        proof, paths = (e if e.proved else None), None
+        if proof is None:
+            try:
+                paths = _legal_paths(instance, objective, stop)
+            except NoJointPlan as none:
+                proof = none
+        if proof is not None:
             return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
-                                    solver={**solver, "note": note})
+                                    solver={**solver, "note": str(proof)})
         if paths is None:
             return Result.from_plan(instance, method, objective, None, status="error", runtime_s=stop.elapsed(),
                                     solver={**solver, "note": f"{e}; a legal plan may still exist (milp finds one)"})
@@ -148,9 +153,10 @@ def _result(instance, method, objective, stop, solver, state0, begin, prefer, on
                             status=stop.reason or "feasible", runtime_s=stop.elapsed(), solver=solver)
 
 
-def _legal_paths(instance: Instance, objective: str, stop: Stop):
-    """(2, T) legal joint paths for two robots by fleet_dp's exact pass without uploads; False
-    if it proves there are none; None where it does not apply (more robots, too large)."""
+def _legal_paths(instance: Instance, objective: str, stop: Stop) -> np.ndarray | None:
+    """(2, T) legal joint paths for two robots by fleet_dp's exact pass without uploads
+    (NoJointPlan, proved, if there are none); None where it does not apply (more robots, too
+    large)."""
     from voiopt.errors import VoioptError
     from voiopt.solvers import fleet_dp
 
@@ -161,7 +167,9 @@ def _legal_paths(instance: Instance, objective: str, stop: Stop):
         out = fleet_dp.legal_pass(fleet_dp.build_joint(instance, objective), stop)
     except VoioptError:
         return None
-    return False if out.plan is None else np.asarray(out.plan[0], dtype=np.int64)
+    if out.plan is None:
+        raise NoJointPlan("no legal joint plan exists (dp's pass without uploads proved it)", True)
+    return np.asarray(out.plan[0], dtype=np.int64)
 
 
 def _uploads_along(idx: np.ndarray, state, begin, on_move) -> np.ndarray:
