@@ -16,7 +16,7 @@ import numpy as np
 
 from voiopt.models import fleet_mdp
 from voiopt.solvers.qlearning._kernels import _slot_reward
-from voiopt.solvers.qlearning._qtable import _ARG_BITS, MAX_LOAD, QTable, _find, _insert
+from voiopt.solvers.qlearning._qtable import _ARG_BITS, QTable, _find, _insert, room_for_episode
 from voiopt.solvers.qlearning._rng import _GOLDEN, _S11, _TWO_M53, _mix
 
 FLEET_SLOTS = 1 << 10  # the first hash table of a fleet: joint rows are long, so start small
@@ -133,7 +133,6 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
     overflow during the next one. Returns the number of episodes run."""
     K, N = starts.shape[0], initial_aoi.shape[0]
     W = table.shape[1] - 2
-    max_states = MAX_LOAD * table.shape[0]
     legal, legal_next = np.empty(max_joint, np.int64), np.empty(max_joint, np.int64)
     points, moves = np.empty(K, np.int64), np.zeros(K, np.int64)
     nxt, up = np.empty(K, np.int64), np.empty(K, np.int64)
@@ -143,7 +142,7 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
     state = rng[0]
     n_states, used = counts[0], counts[1]
     for ep in range(n_episodes):
-        if n_states + horizon + 1 > max_states or used + (horizon + 1) * max_joint > pool.shape[0]:
+        if not room_for_episode(n_states, used, horizon, max_joint, table, pool):
             rng[0] = state
             counts[0], counts[1] = n_states, used
             return ep

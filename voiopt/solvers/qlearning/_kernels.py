@@ -15,12 +15,12 @@ from voiopt.models import mdp as mdp_mod
 from voiopt.solvers.qlearning._qtable import (
     _ARG_BITS,
     _ARG_MASK,
-    MAX_LOAD,
     QTable,
     _encode,
     _find,
     _greedy,
     _insert,
+    room_for_episode,
 )
 from voiopt.solvers.qlearning._rng import _GOLDEN, _S11, _TWO_M53, _mix
 
@@ -108,7 +108,6 @@ def _train(
     K = action_upload.shape[1]
     W = table.shape[1] - 2
     META, QMAX = W, W + 1
-    max_states = MAX_LOAD * table.shape[0]
     aoi = np.empty(N, np.int64)
     qidx = np.empty(N, np.int64)
     # the packed key is updated in place each step: every age field +1 (and the slot field,
@@ -133,7 +132,7 @@ def _train(
     state = rng[0]
     n_states, used = counts[0], counts[1]
     for ep in range(n_episodes):
-        if n_states + horizon + 1 > max_states or used + (horizon + 1) * K > pool.shape[0]:
+        if not room_for_episode(n_states, used, horizon, K, table, pool):
             rng[0] = state
             counts[0], counts[1] = n_states, used
             return ep

@@ -32,6 +32,14 @@ MAX_ACTIONS = 1 << 16
 
 
 @nb.njit(cache=True, inline="always")
+def room_for_episode(n_states, used, horizon, row, table, pool):
+    """Whether one more episode fits without growing: at most horizon + 1 new states keep the
+    table within MAX_LOAD, and their Q rows (at most ``row`` values each) fit the pool. The
+    kernels stop at an episode boundary when it does not; QTable.grow then makes room."""
+    return n_states + horizon + 1 <= MAX_LOAD * table.shape[0] and used + (horizon + 1) * row <= pool.shape[0]
+
+
+@nb.njit(cache=True, inline="always")
 def _encode(p, aoi, qidx, slot, moves, field_word, field_shift, key):
     key[:] = 0
     key[field_word[0]] |= np.uint64(p) << np.uint64(field_shift[0])
