@@ -160,23 +160,32 @@ def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path
     save_figure(fig, path)
 
 
-def plot_sweep(sweep, rows: list[dict[str, Any]], path: Path) -> None:
+def plot_sweep(sweep, rows: list[dict[str, Any]], path: Path, labels: dict[str, str] = SCHEMES,
+               colours: dict[str, str] = COLOURS, proven: str = "dp", dashed: tuple[str, ...] = ("dp",),
+               bold: str | None = None, ticks: bool = False) -> None:
+    """Each method's mean (``rows`` as paper.py aggregates them) against the swept value:
+    Q-learning with a band from the worst to the best seed, the ``proven`` row's bound as a
+    band where some network is not certified, ``dashed`` the exact methods, ``bold`` one line."""
     fig, ax = start_figure(figsize=(6.0, 4.2))
-    for m, label in SCHEMES.items():
+    for m, label in labels.items():
         mine = [r for r in rows if r["method"] == m and r["mean"] is not None]
+        if not mine:
+            continue
         xs = [r["x"] for r in mine]
         ys = [r["mean"] for r in mine]
-        ax.plot(xs, ys, label=label, color=COLOURS[m], marker="o", ms=4, ls="--" if m == "dp" else "-")
+        ax.plot(xs, ys, label=label, color=colours[m], marker="o", ms=4, ls="--" if m in dashed else "-",
+                lw=2.0 if m == bold else None)
         if m in RANDOMISED:
             ax.fill_between(xs, [r["seed_min"] for r in mine], [r["seed_max"] for r in mine],
-                            color=COLOURS[m], alpha=0.2, lw=0)
-        if m == "dp":
-            uncertified = [r for r in mine if r["certified"] is not None and r["certified"] < r["networks"] and r["mean_bound"] is not None]
-            if uncertified:
-                ax.fill_between([r["x"] for r in mine], ys, [r["mean_bound"] or r["mean"] for r in mine],
-                                color="0.6", alpha=0.3, label="proven upper bound (not certified)")
+                            color=colours[m], alpha=0.2, lw=0)
+        if m == proven and any(r["certified"] is not None and r["certified"] < r["networks"]
+                               and r["mean_bound"] is not None for r in mine):
+            ax.fill_between(xs, ys, [r["mean"] if r["mean_bound"] is None else r["mean_bound"] for r in mine],
+                            color="0.6", alpha=0.3, label="proven upper bound (not certified)")
     if sweep.log_x:
         ax.set_xscale("log")
+    if ticks:
+        ax.set_xticks(list(sweep.values))
     ax.set_yscale("log")
     ax.set_xlabel(sweep.x_label)
     ax.set_ylabel("time-average minimum VoI (bit/s)\nmean over networks; Q-learning: mean over seeds,\nband from the worst to the best seed", fontsize=8)
@@ -185,36 +194,16 @@ def plot_sweep(sweep, rows: list[dict[str, Any]], path: Path) -> None:
     save_figure(fig, path)
 
 
+# Fig. 8 (several robots): the best exact plan of dp and milp per network, then each method
 ROBOT_LABELS = {"optimum": "best exact plan (dp, milp)", "dp": "dp", "milp": "milp", **SCHEMES, "greedy": "greedy"}
+ROBOT_COLOURS_BY_METHOD = {**COLOURS, "optimum": "black", "dp": "0.45", "milp": "tab:brown", "greedy": "tab:purple"}
 
 
 def plot_robots(sweep, rows: list[dict[str, Any]], path: Path) -> None:
     """Fig. 8: the optimum (with its proven bound as a band where not certified) and each
     method against the number of robots; Q-learning with its band over seeds."""
-    fig, ax = start_figure(figsize=(6.0, 4.2))
-    colours = {**COLOURS, "optimum": "black", "dp": "0.45", "milp": "tab:brown", "greedy": "tab:purple"}
-    for m, label in ROBOT_LABELS.items():
-        mine = [r for r in rows if r["method"] == m and r["mean"] is not None]
-        if not mine:
-            continue
-        xs = [r["x"] for r in mine]
-        ys = [r["mean"] for r in mine]
-        exact = m in ("optimum", "dp", "milp")
-        ax.plot(xs, ys, label=label, color=colours[m], marker="o", ms=4, ls="--" if exact else "-",
-                lw=2.0 if m == "optimum" else 1.2)
-        if m in RANDOMISED:
-            ax.fill_between(xs, [r["seed_min"] for r in mine], [r["seed_max"] for r in mine], color=colours[m],
-                            alpha=0.2, lw=0)
-        if m == "optimum" and any(r["mean_bound"] is not None and r["certified"] < r["networks"] for r in mine):
-            ax.fill_between(xs, ys, [r["mean_bound"] if r["mean_bound"] is not None else r["mean"] for r in mine],
-                            color="0.6", alpha=0.3, label="proven upper bound (not certified)")
-    ax.set_yscale("log")
-    ax.set_xticks(list(sweep.values))
-    ax.set_xlabel(sweep.x_label)
-    ax.set_ylabel("time-average minimum VoI (bit/s)\nmean over networks; Q-learning: mean over seeds", fontsize=8)
-    ax.set_title(sweep.title, fontsize=8)
-    ax.legend(fontsize=7)
-    save_figure(fig, path)
+    plot_sweep(sweep, rows, path, ROBOT_LABELS, ROBOT_COLOURS_BY_METHOD, proven="optimum",
+               dashed=("optimum", "dp", "milp"), bold="optimum", ticks=True)
 
 
 def case_study_figures(inst: Instance, results: dict[str, Result], out: Path) -> list[Path]:
