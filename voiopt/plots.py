@@ -195,7 +195,7 @@ def plot_sweep(sweep, rows: list[dict[str, Any]], path: Path, labels: dict[str, 
 
 
 # Fig. 8 (several robots): the best exact plan of dp and milp per network, then each method
-ROBOT_LABELS = {"optimum": "best exact plan (dp, milp)", "dp": "dp", "milp": "milp", **SCHEMES, "greedy": "greedy"}
+ROBOT_LABELS = {"optimum": "best exact plan (dp, milp)", **SCHEMES, "dp": "dp", "milp": "milp", "greedy": "greedy"}
 ROBOT_COLOURS_BY_METHOD = {**COLOURS, "optimum": "black", "dp": "0.45", "milp": "tab:brown", "greedy": "tab:purple"}
 
 
