@@ -83,10 +83,7 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
     for v in sweep.values:
         for m in SCHEMES:
             runs = results[(v, m)]
-            by_seed: dict[int | None, list[float]] = {}
-            for seed, r in runs:
-                if r.value is not None:
-                    by_seed.setdefault(seed, []).append(r.value)
+            by_seed = _values_by_seed(runs)
             seed_means = [statistics.fmean(vals) for vals in by_seed.values()]
             per_network = [r.value for _, r in runs if r.value is not None]
             sd = statistics.stdev(per_network) if len(per_network) > 1 else 0.0
@@ -103,6 +100,15 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
                 "errors": sum(r.status == "error" for _, r in runs),
             })
     return rows
+
+
+def _values_by_seed(runs) -> dict[int | None, list[float]]:
+    """The simulated values of (seed, Result) runs with a plan, per seed (None: deterministic)."""
+    by_seed: dict[int | None, list[float]] = {}
+    for seed, r in runs:
+        if r.value is not None:
+            by_seed.setdefault(seed, []).append(r.value)
+    return by_seed
 
 
 # --time-limit is dp's: the paper's Q-learning always runs its episodes (a wall-clock limit
@@ -242,10 +248,7 @@ def _robots_figure(insts, tasks, networks: int, seed: int, seeds: int, reward_un
                      "certified": certified, "errors": ""})
         for m in ROBOT_METHODS:
             runs = results[m]
-            by_seed: dict[int | None, list[float]] = {}
-            for s, r, _ in runs:
-                if r.value is not None:
-                    by_seed.setdefault(s, []).append(r.value)
+            by_seed = _values_by_seed((s, r) for s, r, _ in runs)
             seed_means = [statistics.fmean(x) for x in by_seed.values() if len(x) == len(stems)]
             rows.append({"x": v, "method": m, "networks": len(stems), "seeds": len(by_seed) if m in RANDOMISED else "",
                          "mean": statistics.fmean(seed_means) if seed_means else None,
