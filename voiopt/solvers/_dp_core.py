@@ -26,6 +26,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from voiopt.solvers._dp_bounds import distinct_ages_bound, pair_bound, tour_bound
+
 SUM, MIN = 0, 1
 
 
@@ -51,80 +53,6 @@ def best_rank_table(up_rank, point_steps, sensor_points, sensor_point_count):
                                 cur = r
                     out[i, p, t, s + 1] = cur
     return out
-
-
-@njit(cache=True)
-def pair_table(W, up_rank, point_steps, sensor_points, sensor_point_count):
-    """pair[i, j, tau, q, t2]: the best min(V_i(t2), V_j(t2)) when both are refreshed in slots
-    tau..t2-1, i before j, by an entity at q in slot tau; -inf where impossible.
-
-    j's upload is best made in slot t2-1 (later is better), at a point within the steps left
-    after i's upload; i's at any reachable point and slot. Suffix maxima over i's slot make the
-    table O(pairs * T * (T * n + T * points^2))."""
-    T, n, N = up_rank.shape
-    out = np.full((N, N, T, n, T + 1), -np.inf)
-    P = sensor_points.shape[1]
-    H = np.empty((P, T))
-    for i in range(N):
-        for j in range(N):
-            if i == j:
-                continue
-            for t2 in range(2, T + 1):
-                for ai in range(sensor_point_count[i]):
-                    a = sensor_points[i, ai]
-                    h = -np.inf
-                    for s in range(t2 - 2, -1, -1):
-                        bj = -np.inf
-                        for bi in range(sensor_point_count[j]):
-                            b = sensor_points[j, bi]
-                            if point_steps[j, bi, a] <= t2 - 1 - s:
-                                v = W[j, up_rank[t2 - 1, b, j], t2]
-                                if v > bj:
-                                    bj = v
-                        g = min(W[i, up_rank[s, a, i], t2], bj)
-                        if g > h:
-                            h = g
-                        H[ai, s] = h
-                for tau in range(0, t2 - 1):
-                    for q in range(n):
-                        best = -np.inf
-                        for ai in range(sensor_point_count[i]):
-                            a = sensor_points[i, ai]
-                            sigma = tau + point_steps[i, ai, q]
-                            if sigma <= t2 - 2 and H[ai, sigma] > best:
-                                best = H[ai, sigma]
-                        out[i, j, tau, q, t2] = best
-    return out
-
-
-@njit(cache=True)
-def _pair_bound(rank, q, tau, t2, W, best_rank, pair, lo, hi):
-    """Upper bound on min_i V_i(t2) from every pair of sensors: both fresh needs both uploads,
-    in order, with the travel between them (pair_table); otherwise one keeps its value."""
-    N = rank.shape[0]
-    for i in range(N):
-        r = rank[i]
-        lo[i] = W[i, r, t2]
-        b = best_rank[i, q, tau, t2]
-        if b > r:
-            r = b
-        hi[i] = W[i, r, t2]
-    best = np.inf
-    for i in range(N):
-        for j in range(i + 1, N):
-            p = min(lo[i], hi[j])
-            v = min(hi[i], lo[j])
-            if v > p:
-                p = v
-            v = pair[i, j, tau, q, t2]
-            if v > p:
-                p = v
-            v = pair[j, i, tau, q, t2]
-            if v > p:
-                p = v
-            if p < best:
-                best = p
-    return best
 
 
 @njit(cache=True, inline="always")
@@ -163,54 +91,16 @@ def _ranks_geq(a, b):
 
 
 @njit(cache=True)
-def _distinct_ages_bound(rank, q, tau, t2, W, best_rank, per_slot, c):
-    """Upper bound on min_i V_i(t2) that respects one upload per slot.
-
-    Among any k sensors, either one is not refreshed in slots tau..t2-1 (value <= its current
-    one) or all are, in distinct slots, so one was refreshed at least k slots before t2 (value
-    <= its best from an upload in slot <= t2-k). So for every k the k-th smallest of
-    c_i(k) = W[i, max(rank_i, best rank by slot t2-k), t2] bounds the slot; k = 1 is the
-    per-sensor relaxation ``per_slot``."""
-    N = rank.shape[0]
-    best = per_slot
-    for k in range(2, N + 1):
-        tp = t2 - k + 1  # best_rank[.., tp] covers uploads in slots tau..t2-k
-        for i in range(N):
-            r = rank[i]
-            if tp > tau:
-                b = best_rank[i, q, tau, tp]
-                if b > r:
-                    r = b
-            c[i] = W[i, r, t2]
-        below = 0  # the k-th smallest is below the best so far iff k values are
-        for i in range(N):
-            if c[i] < best:
-                c[below] = c[i]
-                below += 1
-        if below >= k:  # k-th smallest of the values below, by partial selection sort
-            for a in range(k):
-                m = a
-                for b2 in range(a + 1, below):
-                    if c[b2] < c[m]:
-                        m = b2
-                c[a], c[m] = c[m], c[a]
-            best = c[k - 1]
-        if tp <= tau:
-            break  # larger k only sees current values: their k-th smallest can only grow
-    return best
-
-
-@njit(cache=True)
 def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse, tdma, scratch, pair, lo_buf,
-                        hi_buf):
+                        hi_buf, steps, iscratch):
     """Admissible bound on the final value of a label in slot tau at q, and collapse in place.
 
     Future slot t2 > tau: sensor i's value is at most W[i, max(rank_i, best_rank), t2] and at
     least W[i, rank_i, t2]. A sensor whose lowest possible value exceeds some other sensor's
     highest possible value (or, for min accumulation, is already >= acc) is never the binding
     minimum in any completion: its rank is set to the collapsed rank (exact, docs/dp.md).
-    With ``tdma`` the slot term is tightened by _distinct_ages_bound, and by _pair_bound when
-    ``pair`` is not empty."""
+    With ``tdma`` the slot term is tightened by the bounds of _dp_bounds: distinct ages always,
+    the pairwise bound when ``pair`` is not empty and the tour bound when ``steps`` is not."""
     N = rank.shape[0]
     T = W.shape[2] - 1
     big = W.shape[1] - 1
@@ -235,11 +125,13 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
                 m2 = u
         term = m1
         if tdma and N > 1:
-            term = _distinct_ages_bound(rank, q, tau, t2, W, best_rank, m1, scratch)
+            term = distinct_ages_bound(rank, q, tau, t2, W, best_rank, m1, scratch)
             if pair.shape[0] > 0:
-                v = _pair_bound(rank, q, tau, t2, W, best_rank, pair, lo_buf, hi_buf)
+                v = pair_bound(rank, q, tau, t2, W, best_rank, pair, lo_buf, hi_buf)
                 if v < term:
                     term = v
+            if steps.shape[0] > 0:
+                term = tour_bound(rank, q, tau, t2, W, best_rank, steps, term, hi_buf, iscratch[:N], iscratch[N:])
         if mode == SUM:
             ub += term
         elif term < ub:
@@ -263,7 +155,7 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
 
 
 @njit(cache=True)
-def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma, pair):
+def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma, pair, steps):
     """Bound (and collapse) of every label of one layer: used for the start label."""
     L, N = ranks.shape
     ub = np.empty(L)
@@ -271,15 +163,16 @@ def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma, pair):
     scratch = np.empty(N)
     lo = np.empty(N)
     hi = np.empty(N)
+    iscratch = np.empty(2 * N, dtype=np.int64)
     for l in range(L):
         ub[l] = _bound_and_collapse(mode, ranks[l], acc[l], pos[l], t, W, best_rank, matters, collapse, tdma,
-                                    scratch, pair, lo, hi)
+                                    scratch, pair, lo, hi, steps, iscratch)
     return ub
 
 
 @njit(cache=True, nogil=True)
 def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, in_range_count, W, best_rank,
-           incumbent, q_lo, q_hi, beam, collapse, tdma, pair, to_end, budget_lane, halt):
+           incumbent, q_lo, q_hi, beam, collapse, tdma, pair, steps, to_end, budget_lane, halt):
     """Children in slot t+1 at target points q_lo..q_hi-1 of the layer in slot t.
 
     Returns the non-dominated children whose bound beats ``incumbent`` and that can still reach
@@ -328,7 +221,9 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
     scratch = np.empty(N)
     lo = np.empty(N)
     hi = np.empty(N)
+    iscratch = np.empty(2 * N, dtype=np.int64)
     no_pair = np.empty((0, 0, 0, 0, 0))
+    no_steps = np.empty((0, 0), dtype=np.int64)
     child = np.empty(N, dtype=np.int16)
     n_out = 0
     generated = 0
@@ -358,7 +253,7 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
                     a = _child(mode, ranks[l], acc[l], u, up_rank[t, p], W, tau, child)
                     generated += 1
                     ub = _bound_and_collapse(mode, child, a, q, tau, W, best_rank, matters, collapse, False, scratch,
-                                             no_pair, lo, hi)
+                                             no_pair, lo, hi, no_steps, iscratch)
                     if ub <= incumbent:
                         continue
                     s = 0.0
@@ -433,7 +328,7 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
             for h in range(nk):
                 c = kept[h]
                 ub = _bound_and_collapse(mode, c_rank[c], -c_acc[c], q, tau, W, best_rank, matters, False, True,
-                                         scratch, pair, lo, hi)
+                                         scratch, pair, lo, hi, steps, iscratch)
                 if ub > incumbent:
                     c_ub[c] = min(ub, c_ub[c])
                     kept[nt] = c

@@ -43,19 +43,27 @@ class Tables:
     budget: int  # the moves a plan may make, min(max_moves, T - 1)
     budget_lane: int  # 1 when max_moves binds: the moves left join the dominance test
     pair: np.ndarray = field(default_factory=lambda: np.empty((0, 0, 0, 0, 0)))  # pair_table, or empty
+    steps: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=np.int64))  # range_steps, or empty
 
     @property
     def nbytes(self) -> int:
         """Bytes of the tables (they count against the memory limit with the labels)."""
         return sum(v.nbytes for v in vars(self).values() if isinstance(v, np.ndarray))
 
+    def with_tour_bound(self) -> None:
+        """Compute the moves between sensors' ranges that the tour bound needs (one robot only)."""
+        from voiopt.solvers import _dp_bounds
+
+        if self.up_rank.shape[2] > 1 and self.steps.shape[0] == 0:
+            self.steps = _dp_bounds.range_steps(self.point_steps, self.sensor_points, self.sensor_point_count)
+
     def with_pair_bound(self, max_bytes: float = PAIR_TABLE_BYTES) -> None:
         """Compute the pairwise travel table (skipped if it would exceed ``max_bytes``)."""
-        from voiopt.solvers import _dp_core as core
+        from voiopt.solvers import _dp_bounds
 
         T, n, N = self.up_rank.shape
         if N > 1 and self.pair.shape[0] == 0 and N * N * T * n * (T + 1) * 8 <= max_bytes:
-            self.pair = core.pair_table(self.W, self.up_rank, self.point_steps, self.sensor_points,
+            self.pair = _dp_bounds.pair_table(self.W, self.up_rank, self.point_steps, self.sensor_points,
                                         self.sensor_point_count)
 
 

@@ -69,7 +69,8 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
     acc = np.array([np.inf if tab.mode == core.MIN else 0.0])
     pos = np.array([tab.start], dtype=np.int32)
     left = np.array([tab.budget], dtype=np.int16)  # moves each label may still make
-    ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse, tdma, tab.pair)
+    ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse, tdma, tab.pair,
+                            tab.steps)
     history: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per slot >= 1: parent, upload, pos
     stored = 0
     peak_layer = 1
@@ -102,7 +103,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                     q_hi += 1
                 out = _watched(stop, core.expand, tab.mode, t, l_ranks, l_acc, l_ub, l_left, off, tab.neighbors,
                                tab.up_rank, tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo,
-                               q_hi, beam, collapse, tdma, tab.pair, tab.to_end, tab.budget_lane)
+                               q_hi, beam, collapse, tdma, tab.pair, tab.steps, tab.to_end, tab.budget_lane)
                 if out[8]:  # halted by the stop rule: this layer is abandoned, its parents stay open
                     return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stop.reason)
                 out = (*out[:3], idx[out[3]], *out[4:])
@@ -221,6 +222,7 @@ def solve(
     warm_start: Plan | None = None,
     beam: int = DEFAULT_BEAM,
     greedy: bool = True, collapse: bool = True, bounding: bool = True, tdma: bool = True, pair_bound: bool = True,
+    tour_bound: bool = True,
     fast_budget: int = FAST_BUDGET,
     quick_beam: int = QUICK_BEAM,
 ) -> Result:
@@ -235,7 +237,7 @@ def solve(
         from voiopt.solvers import fleet_dp
 
         one_robot = dict(greedy=(greedy, True), collapse=(collapse, True), tdma=(tdma, True),
-                         pair_bound=(pair_bound, True), fast_budget=(fast_budget, FAST_BUDGET),
+                         pair_bound=(pair_bound, True), tour_bound=(tour_bound, True), fast_budget=(fast_budget, FAST_BUDGET),
                          quick_beam=(quick_beam, QUICK_BEAM))
         for key, (given, default) in one_robot.items():
             if given != default:
@@ -251,12 +253,14 @@ def solve(
     with watch(time_limit, memory_limit) as stop:
         return _solve(instance, objective, stop, startup_s, warm_start=warm_start, beam=beam, greedy=greedy,
                       collapse=collapse, bounding=bounding, tdma=tdma, pair_bound=pair_bound,
-                      fast_budget=fast_budget, quick_beam=quick_beam, progress=progress)
+                      tour_bound=tour_bound, fast_budget=fast_budget, quick_beam=quick_beam, progress=progress)
 
 
 def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, warm_start, beam, greedy,
-           collapse, bounding, tdma, pair_bound, fast_budget, quick_beam, progress) -> Result:
+           collapse, bounding, tdma, pair_bound, tour_bound, fast_budget, quick_beam, progress) -> Result:
     tab = build_tables(instance, objective)
+    if tour_bound and tdma:
+        tab.with_tour_bound()
 
     best_plan: Plan | None = None
     best_value = -np.inf  # internal (maximised) units
@@ -325,7 +329,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         "peak_label_bytes": max(p.peak_bytes for _, p in passes),
         "incumbents": incumbents,
         "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding, "tdma": tdma,
-                    "pair_bound": tab.pair.shape[0] > 0,
+                    "pair_bound": tab.pair.shape[0] > 0, "tour_bound": tab.steps.shape[0] > 0,
                     "fast_budget": fast_budget, "time_limit": stop.time_limit, "memory_limit": stop.memory_limit},
     }
     solver["startup_s"] = startup_s

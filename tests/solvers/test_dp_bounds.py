@@ -1,0 +1,99 @@
+"""The dp's slot bounds are true bounds: along an optimal plan, every label's bound (all of them
+together: per-sensor, distinct ages, pairwise travel, tour; and the tour bound without the
+pairwise one, which would mask it) is at least the optimum, on networks
+whose optimum the independent brute force knows. The tour bound must also bind somewhere, or
+these tests would not test it; and dp with and without it proves the same optima."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import field_instances, oracle_optima, tiny_instances
+from oracles.bruteforce import brute_force
+
+import voiopt
+from voiopt import lattice
+from voiopt.objectives import OBJECTIVES
+from voiopt.solvers import _dp_core as core
+from voiopt.solvers import dp
+from voiopt.solvers._dp_shared import build_tables
+
+RTOL = 1e-9
+
+
+def corridor_instances(count: int = 24, seed: int = 99) -> list[voiopt.Instance]:
+    """Sensors along 5 x 1 and 5 x 2 lattices with d_th = 1: their ranges lie apart, so the walk
+    between them (the tour bound's subject) binds."""
+    rng = np.random.default_rng(seed)
+    return [voiopt.generate(int(rng.integers(2, 4)), int(rng.integers(4, 7)), width=4.0, height=float(1 + k % 2),
+                            rho=(0.05, 0.95), seed=int(rng.integers(2**31)), name=f"corridor-{k:02d}")
+            for k in range(count)]
+
+
+CASES = corridor_instances() + tiny_instances(16, seed=2468) + field_instances(16)
+
+
+def _optimum(inst: voiopt.Instance, objective: str) -> float:
+    if inst.blocked or inst.end is not None or inst.max_moves is not None:
+        return oracle_optima(inst)[objective]  # the oracle of MODEL.md section 9 (fields)
+    return brute_force(inst, objective)[0]
+
+
+def _labels_along(inst: voiopt.Instance, tab, plan) -> list[tuple[int, int, np.ndarray, float]]:
+    """(slot, point, ranks, accumulated value) of the plan's label in every slot."""
+    lat = lattice.build(inst)
+    points = [lat.index(x, y) for x, y in plan.positions]
+    ranks = tab.initial_rank.copy()
+    acc = np.inf if tab.mode == core.MIN else 0.0
+    out = []
+    for t, (q, u) in enumerate(zip(points, plan.schedule, strict=True)):
+        out.append((t, q, ranks.copy(), acc))
+        if u is not None:
+            ranks[u] = tab.up_rank[t, q, u]
+        w = min(tab.W[i, ranks[i], t + 1] for i in range(len(ranks)))
+        acc = acc + w if tab.mode == core.SUM else min(acc, w)
+    return out
+
+
+NONE = np.empty((0, 0), dtype=np.int64)
+
+
+def _bound(tab, t, q, ranks, acc, pair, steps) -> float:
+    return core.label_bounds(tab.mode, t, ranks[None, :].copy(), np.array([acc]), np.array([q], dtype=np.int32),
+                             tab.W, tab.best_rank, False, True, pair, steps)[0]
+
+
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+def test_every_bound_is_at_least_the_optimum_along_an_optimal_plan(objective):
+    assert len(CASES) >= 50
+    tighter = 0
+    for inst in CASES:
+        opt = _optimum(inst, objective)
+        r = dp.solve(inst, objective, tour_bound=False)  # an optimal plan to walk along
+        assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
+        tab = build_tables(inst, objective)
+        tab.with_pair_bound()
+        tab.with_tour_bound()
+        target = opt * tab.to_internal
+        no_pair = np.empty((0,) * 5)
+        for t, q, ranks, acc in _labels_along(inst, tab, r.plan):
+            every = _bound(tab, t, q, ranks, acc, tab.pair, tab.steps)
+            tour = _bound(tab, t, q, ranks, acc, no_pair, tab.steps)  # the pairwise bound would mask it
+            for b in (every, tour):
+                assert b >= target - RTOL * max(abs(target), 1e-300), (inst.name, t, b, target)
+            tighter += tour < _bound(tab, t, q, ranks, acc, no_pair, NONE)
+    assert tighter > 0  # the tour bound cut some label's bound: the check above tested it
+
+
+def test_dp_proves_the_same_optima_with_and_without_the_tour_bound():
+    rng = np.random.default_rng(5)
+    for k in range(8):
+        inst = voiopt.generate(int(rng.integers(3, 7)), int(rng.integers(10, 20)), width=6.0, height=6.0,
+                               seed=int(rng.integers(2**31)), blocked_fraction=0.25 if k % 2 else 0.0,
+                               end="start" if k % 3 == 0 else None, max_moves=10 if k % 4 == 0 else None)
+        for objective in OBJECTIVES:
+            a = dp.solve(inst, objective, fast_budget=0)  # incumbents first: the tight bounds prune
+            b = dp.solve(inst, objective, fast_budget=0, tour_bound=False)
+            assert a.status == b.status == "optimal", (inst.name, objective)
+            assert a.solver["options"]["tour_bound"] and not b.solver["options"]["tour_bound"]
+            assert abs(a.value - b.value) <= RTOL * max(abs(a.value), 1e-300), (inst.name, objective, a.value, b.value)
