@@ -97,3 +97,50 @@ def test_dp_proves_the_same_optima_with_and_without_the_tour_bound():
             assert a.status == b.status == "optimal", (inst.name, objective)
             assert a.solver["options"]["tour_bound"] and not b.solver["options"]["tour_bound"]
             assert abs(a.value - b.value) <= RTOL * max(abs(a.value), 1e-300), (inst.name, objective, a.value, b.value)
+
+
+# ---------------------------------------------------------------- the subset relaxation
+
+
+def test_every_subset_optimum_bounds_the_optimum_of_the_whole():
+    """Dropping sensors can only raise the optimum: on 54 networks and every objective, the
+    brute force's optimum of each network is at most dp's optimum of each subset of its sensors
+    (all subsets of 1 .. N-1 sensors), and no better than the best subset plan's value."""
+    from itertools import combinations
+
+    cases = [inst for inst in CASES if inst.n_sensors >= 2]
+    assert len(cases) >= 30
+    for inst in cases:
+        sensors = inst.to_dict()["sensors"]
+        for objective in OBJECTIVES:
+            opt = _optimum(inst, objective)
+            sign = 1.0 if OBJECTIVES[objective] == "max" else -1.0
+            for m in range(1, inst.n_sensors):
+                for keep in combinations(range(inst.n_sensors), m):
+                    sub = inst.replace(sensors=[sensors[i] for i in keep])
+                    r = dp.solve(sub, objective)
+                    assert r.status == "optimal"
+                    assert sign * r.value >= sign * opt - RTOL * max(abs(opt), 1e-300), (inst.name, keep, objective)
+
+
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+def test_dp_through_the_subsets_equals_the_brute_force(objective):
+    """fast_budget=1 sends every network down the path of large ones: incumbents, then the
+    subsets (which may prove the optimum alone), then the bounded pass."""
+    used = 0
+    for inst in CASES:
+        r = dp.solve(inst, objective, fast_budget=1)
+        opt = _optimum(inst, objective)
+        assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
+        used += "subset_bound" in r.solver
+    assert used >= 5, used  # networks of 3 sensors or more ran the subsets
+
+
+def test_the_subsets_certify_twelve_sensors_where_the_full_search_alone_does_not():
+    inst = voiopt.generate_set(1, seed=2026, n_sensors=12, horizon=30, width=5.0, height=5.0, name="n12")[0]
+    alone = dp.solve(inst, "mean-min-voi", time_limit=4, subsets=False)
+    assert alone.status == "time_limit" and alone.gap > 0
+    r = dp.solve(inst, "mean-min-voi", time_limit=60)
+    assert r.status == "optimal" and r.value == r.bound == r.solver["subset_bound"]
+    assert any(source.startswith("subset of") for source, _ in r.solver["incumbents"])
+    assert r.value >= alone.value and r.bound <= alone.bound

@@ -22,6 +22,7 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
+from voiopt.solvers import _dp_subsets
 from voiopt.solvers._dp_shared import (
     CHUNK_WORK,
     PAIR_TABLE_BYTES,
@@ -222,7 +223,7 @@ def solve(
     warm_start: Plan | None = None,
     beam: int = DEFAULT_BEAM,
     greedy: bool = True, collapse: bool = True, bounding: bool = True, tdma: bool = True, pair_bound: bool = True,
-    tour_bound: bool = True,
+    tour_bound: bool = True, subsets: bool = True,
     fast_budget: int = FAST_BUDGET,
     quick_beam: int = QUICK_BEAM,
 ) -> Result:
@@ -237,7 +238,8 @@ def solve(
         from voiopt.solvers import fleet_dp
 
         one_robot = dict(greedy=(greedy, True), collapse=(collapse, True), tdma=(tdma, True),
-                         pair_bound=(pair_bound, True), tour_bound=(tour_bound, True), fast_budget=(fast_budget, FAST_BUDGET),
+                         pair_bound=(pair_bound, True), tour_bound=(tour_bound, True),
+                         subsets=(subsets, True), fast_budget=(fast_budget, FAST_BUDGET),
                          quick_beam=(quick_beam, QUICK_BEAM))
         for key, (given, default) in one_robot.items():
             if given != default:
@@ -253,11 +255,11 @@ def solve(
     with watch(time_limit, memory_limit) as stop:
         return _solve(instance, objective, stop, startup_s, warm_start=warm_start, beam=beam, greedy=greedy,
                       collapse=collapse, bounding=bounding, tdma=tdma, pair_bound=pair_bound,
-                      tour_bound=tour_bound, fast_budget=fast_budget, quick_beam=quick_beam, progress=progress)
+                      tour_bound=tour_bound, subsets=subsets, fast_budget=fast_budget, quick_beam=quick_beam, progress=progress)
 
 
 def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, warm_start, beam, greedy,
-           collapse, bounding, tdma, pair_bound, tour_bound, fast_budget, quick_beam, progress) -> Result:
+           collapse, bounding, tdma, pair_bound, tour_bound, subsets, fast_budget, quick_beam, progress) -> Result:
     tab = build_tables(instance, objective)
     if tour_bound and tdma:
         tab.with_tour_bound()
@@ -288,6 +290,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if b.plan is not None:
             offer(Plan.from_indices(instance, *b.plan), f"beam {width}")
 
+    relaxed = np.inf  # the subsets' bound (internal units), if they ran
     if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
         beam_pass(quick_beam)
     out = search(tab, inc(), label_budget=fast_budget, progress=progress, **limits)
@@ -302,7 +305,14 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         limits["tdma"] = tdma
         if beam > 0 and out.stopped == LABEL_BUDGET:
             beam_pass(beam)
-        if out.stopped == LABEL_BUDGET:
+        if subsets and bounding and out.stopped == LABEL_BUDGET:
+            def solve_subset(sub: Instance, seconds: float, warm: Plan | None) -> Result:
+                return solve(sub, objective, time_limit=seconds, memory_limit=stop.memory_limit, warm_start=warm,
+                             subsets=False)
+
+            relaxed = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda b: _reaches(best_value, b),
+                                        lambda: best_plan, solve_subset)
+        if out.stopped == LABEL_BUDGET and not _reaches(best_value, relaxed):
             out = search(tab, inc(), progress=progress, **limits)
             passes.append(("bounded", out))
     if out.plan is not None:
@@ -319,8 +329,10 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         offer(Plan.from_indices(instance, [tab.start, *lat.walk_home(tab.start, T - 1)], np.full(T, -1)), "idle")
     if out.complete:
         bound_internal, status = max(best_value, out.value), "optimal"
+    elif _reaches(best_value, relaxed):  # a plan as good as a subset's bound
+        bound_internal, status = max(best_value, relaxed), "optimal"
     else:
-        bound_internal, status = max(best_value, out.open_bound), stop.reason or TIME_LIMIT
+        bound_internal, status = max(best_value, min(out.open_bound, relaxed)), stop.reason or TIME_LIMIT
     solver = {
         "passes": {name: dict(labels=p.labels, children_generated=p.generated, peak_layer_labels=p.peak_layer,
                               slots_done=p.slots_done, complete=p.complete)
@@ -329,14 +341,21 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         "peak_label_bytes": max(p.peak_bytes for _, p in passes),
         "incumbents": incumbents,
         "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding, "tdma": tdma,
-                    "pair_bound": tab.pair.shape[0] > 0, "tour_bound": tab.steps.shape[0] > 0,
+                    "pair_bound": tab.pair.shape[0] > 0, "tour_bound": tab.steps.shape[0] > 0, "subsets": subsets,
                     "fast_budget": fast_budget, "time_limit": stop.time_limit, "memory_limit": stop.memory_limit},
     }
     solver["startup_s"] = startup_s
-    if not out.complete:
+    if np.isfinite(relaxed):
+        solver["subset_bound"] = _external(tab, relaxed)
+    if status != "optimal":
         solver["stopped"] = stop.describe()
     return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=_external(tab, bound_internal),
                             runtime_s=stop.elapsed(), solver=solver)
+
+
+def _reaches(value: float, bound: float) -> bool:
+    """The plan's value equals the bound, up to the rounding of two sums of the same terms."""
+    return bool(np.isfinite(bound) and value >= bound - 1e-12 * abs(bound))
 
 
 def _greedy_plan(instance: Instance, objective: str, stop: Stop) -> Plan | None:
