@@ -120,9 +120,11 @@ def command_line(networks, args) -> tuple[int, list[float], list[float]]:
             voiopt.save(inst, path)
             out.unlink(missing_ok=True)
             t0 = time.perf_counter()
-            subprocess.run([*command, str(path), "--method", "qlearning", "--episodes", str(episodes),
-                            "--seed", str(args.seed), "-o", str(out)], env=env, check=True, stdout=subprocess.DEVNULL)
+            done = subprocess.run([*command, str(path), "--method", "qlearning", "--episodes", str(episodes),
+                                   "--seed", str(args.seed), "-o", str(out)], env=env, capture_output=True, text=True)
             wall = time.perf_counter() - t0
+            if done.returncode:
+                sys.exit(f"{' '.join(done.args)} failed ({done.returncode}):\n{done.stderr}")
             return wall, json.loads(out.read_text())
 
         print(f"{'command line':<22} {'episodes':>9} {'wall s':>7} {'steps/wall s':>13}  (python -m voiopt solve ..., "
