@@ -9,14 +9,14 @@ blocked points the fewest moves are the Manhattan distance; with them, a breadth
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
 UNREACHABLE = 1 << 40  # the distance of a point that cannot be reached (sums of a few stay exact)
 
 
 def free_graph(nx: int, ny: int, blocked: np.ndarray):
     """The sparse adjacency (CSR) of N/S/E/W moves between points that are not blocked."""
+    from scipy.sparse import coo_matrix  # here: scipy costs a third of a second at start-up
+
     free = ~np.asarray(blocked, dtype=bool).reshape(nx, ny)
     ids = np.arange(nx * ny, dtype=np.int64).reshape(nx, ny)
     rows, cols = [], []
@@ -46,6 +46,8 @@ def steps(nx: int, ny: int, blocked: np.ndarray | None, sources, graph=None) -> 
     out = np.full(nx * ny, UNREACHABLE, dtype=np.int64)
     if not len(src):
         return out
+    from scipy.sparse.csgraph import dijkstra  # only with blocked points (start-up, see free_graph)
+
     g = free_graph(nx, ny, blocked) if graph is None else graph
     d = dijkstra(g, directed=False, unweighted=True, indices=src, min_only=True)
     ok = np.isfinite(d)

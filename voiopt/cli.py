@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import signal
 import sys
@@ -381,8 +382,20 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run() -> None:
-    """Console-script entry point."""
-    sys.exit(main())
+    """Console-script entry point (and ``python -m voiopt``): one command, then exit.
+
+    A ``solve`` runs without Python's cyclic garbage collector: importing numba and loading its
+    cached kernels build a large graph of long-lived objects, which collections would walk again
+    and again (about 0.2 s of start-up), and one solve leaves next to no cyclic garbage (100 to
+    2400 objects, measured on the case study). Sweeps keep the collector. Whatever is alive at
+    exit is frozen rather than walked once more on the way out (about 0.4 s)."""
+    if sys.argv[1:2] == ["solve"]:
+        gc.disable()
+    try:
+        code = main()
+    finally:
+        gc.freeze()
+    sys.exit(code)
 
 
 if __name__ == "__main__":
