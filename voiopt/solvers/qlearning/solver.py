@@ -115,7 +115,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     else:
         base.require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
         build, slots, train_fn, rollout_fn = mdp_mod.build, 1 << 15, train, rollout
-    startup_s = warm_up(instance.fleet)
+    startup_s = warm_up(bool(instance.fleet))
     with watch(time_limit, memory_limit) as stop:
         model = build(instance, reward, penalty, slot_in_state, reward_units)
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
