@@ -100,13 +100,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-tdma", action="store_true", help="per-sensor bound only, without the distinct-ages step")
     ap.add_argument("--no-pair", action="store_true", help="no pairwise travel bound")
     ap.add_argument("--no-tour", action="store_true", help="no tour bound")
+    ap.add_argument("--no-subsets", action="store_true", help="no subset relaxation")
     ap.add_argument("--no-fast-pass", action="store_true", help="compute the incumbents before the first pass")
     ap.add_argument("--verbose", "-v", action="store_true", help="one line per network")
     ap.add_argument("--json", help="also write every run to this JSON file")
     args = ap.parse_args(argv)
     options = dict(beam=args.beam, greedy=not args.no_greedy, collapse=not args.no_collapse,
                    bounding=not args.no_bounding, tdma=not args.no_tdma,
-                   pair_bound=not args.no_pair, tour_bound=not args.no_tour)
+                   pair_bound=not args.no_pair, tour_bound=not args.no_tour,
+                   subsets=not args.no_subsets)
     if args.no_fast_pass:
         options["fast_budget"] = 0
     settings = [s for s in args.settings.split(",") if s]
