@@ -161,3 +161,17 @@ def test_hostile_submissions_are_one_line_errors_naming_the_file(capsys, tmp_pat
     code, out, err = run(capsys, "bench", "score", str(path))
     line = one_line_error(err)
     assert code == 2 and out == "" and line.startswith(f"voiopt: error: {path}: ") and message in line, line
+
+
+def test_certify_only_updates_those_entries_and_keeps_the_others(tmp_path, capsys):
+    (tmp_path / "certificates.json").write_text(json.dumps(CERTS))
+    code, _, _ = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
+                     "--only", "paper-n3-t10-000", "--quiet", "--time-limit", "10")
+    assert code == 0
+    made = json.loads((tmp_path / "certificates.json").read_text())
+    assert list(made["instances"]) == list(CERTS["instances"])  # every instance, in the library's order
+    for name, entry in CERTS["instances"].items():
+        if name != "paper-n3-t10-000":
+            assert made["instances"][name] == entry
+    fresh = made["instances"]["paper-n3-t10-000"]["certificates"]["max-aoi"]
+    assert fresh["checks"] != CERTS["instances"]["paper-n3-t10-000"]["certificates"]["max-aoi"]["checks"]  # re-run

@@ -265,7 +265,8 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     """Run dp and the MILP on every instance (or those named in ``only``) and objective
     (results kept in ``work_dir``, so an interrupted run resumes, on a process pool or Dask)
     and write certificates.json into ``into`` (default: the package's VoI-Lib folder, in a
-    source checkout)."""
+    source checkout). With ``only``, the other instances' entries of an existing
+    certificates.json there are kept (those whose instance is unchanged)."""
     from voiopt.experiments.runner import method_tasks, run_tasks
     from voiopt.result import load_result
 
@@ -295,5 +296,12 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
         entry["certificates"][objective] = certificate_of(lib[name], objective, results)
     target = Path(into) if into is not None else Path(str(DATA))
     path = target / "certificates.json"
+    if only is not None and path.exists():  # --only updates those entries and keeps the others
+        kept = read_json(path).get("instances", {})
+        every = instances()
+        for name, entry in kept.items():
+            if name in every and entry.get("sha256") == instance_hash(every[name]):
+                out["instances"].setdefault(name, entry)
+        out["instances"] = {n: out["instances"][n] for n in every if n in out["instances"]}
     write_json_atomic(path, out)
     return path
