@@ -15,7 +15,7 @@ import voiopt
 from voiopt import lattice
 from voiopt.objectives import OBJECTIVES
 from voiopt.solvers import _dp_core as core
-from voiopt.solvers import dp
+from voiopt.solvers import _dp_subsets, dp
 from voiopt.solvers._dp_shared import build_tables
 
 RTOL = 1e-9
@@ -124,9 +124,11 @@ def test_every_subset_optimum_bounds_the_optimum_of_the_whole():
 
 
 @pytest.mark.parametrize("objective", list(OBJECTIVES))
-def test_dp_through_the_subsets_equals_the_brute_force(objective):
+def test_dp_through_the_subsets_equals_the_brute_force(objective, monkeypatch):
     """fast_budget=1 sends every network down the path of large ones: incumbents, then the
-    subsets (which may prove the optimum alone), then the bounded pass."""
+    subsets (which may prove the optimum alone), then the bounded pass; the subsets run from 3
+    sensors here (by default from MIN_SENSORS)."""
+    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
     used = 0
     for inst in CASES:
         r = dp.solve(inst, objective, fast_budget=1)

@@ -25,6 +25,7 @@ from voiopt.stop import Stop
 SHARE = 0.5  # of the time limit that the subsets may take
 SECONDS = 10.0  # their budget when there is no time limit
 FIRST = 2  # sensors of the first subset
+MIN_SENSORS = 6  # with fewer, a subset is about as hard as the whole (the lattice and T dominate)
 
 
 def need_order(tab) -> list[int]:
@@ -52,7 +53,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, reached, i
     it, until none does (the plan is then optimal for the whole), ``reached(bound)`` says the
     best plan so far attains the bound, the budget is spent or a subset is not solved."""
     N = instance.n_sensors
-    if N < 3:
+    if N < MIN_SENSORS:
         return np.inf
     left = stop.remaining()
     budget = SECONDS if left is None else SHARE * max(left, 0.0)
