@@ -19,6 +19,7 @@ import numpy as np
 from voiopt import objectives
 from voiopt.instance import Instance
 from voiopt.plan import Plan
+from voiopt.progress import progress_bar
 from voiopt.simulate import simulate
 from voiopt.stop import Stop
 
@@ -43,15 +44,18 @@ def need_order(tab) -> list[int]:
     return [int(i) for i in np.argsort(score, kind="stable")]
 
 
-def relax(instance: Instance, objective: str, tab, stop: Stop, offer, reached, incumbent, solve) -> float:
+def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent, solve, progress: bool = False) -> float:
     """The smallest bound (internal units) over a growing subset of the sensors, each subset
-    solved by dp within the subsets' time budget; +inf if none finished in time.
+    solved by ``solve(subset, seconds, warm_start)`` (dp) within the subsets' time budget; +inf
+    if none finished in time.
 
-    The subset starts with the sensors that ``need_order`` puts first. Each subset's plan is
-    offered to ``offer`` as an incumbent and simulated on the whole network; the sensor outside
-    the subset whose worth falls furthest below the subset's minimum (summed over slots) joins
-    it, until none does (the plan is then optimal for the whole), ``reached(bound)`` says the
-    best plan so far attains the bound, the budget is spent or a subset is not solved."""
+    The subset starts with the sensors that ``need_order`` puts first. dp solves it from the
+    best plan so far (``incumbent()``: plan or None, and its internal value) restricted to it;
+    its plan is offered to ``offer`` as an incumbent and simulated on the whole network, and
+    the sensor outside the subset whose worth falls furthest below the subset's minimum (summed
+    over slots) joins it. This ends when none does (the plan is then optimal for the whole),
+    when the best plan attains the bound, when the budget is spent or a subset is not solved.
+    ``progress`` shows each subset with the best value, the bound and the gap."""
     N = instance.n_sensors
     if N < MIN_SENSORS:
         return np.inf
@@ -60,28 +64,50 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, reached, i
     t0 = time.perf_counter()
     keep = sorted(need_order(tab)[:FIRST])
     sensors = instance.to_dict()["sensors"]
-    aoi = objectives.get(objective).worth == "aoi"
     best = np.inf
-    while len(keep) < N:
-        spent = time.perf_counter() - t0
-        if spent >= budget or stop.check() is not None:
-            break
-        sub = instance.replace(sensors=[sensors[i] for i in keep], name=f"{instance.name}-subset{len(keep)}")
-        r = solve(sub, budget - spent, _restricted(incumbent(), keep))
-        best = min(best, r.bound * tab.to_internal)
-        plan = Plan(r.plan.positions, tuple(None if u is None else keep[u] for u in r.plan.schedule))
-        offer(plan, f"subset of {len(keep)}")
-        if r.status != "optimal" or reached(best):
-            break  # a larger subset would take longer still, or the bound is attained
-        sim = simulate(instance, plan)
-        worth = -np.asarray(sim.aoi, dtype=float)[1:] if aoi else np.asarray(sim.voi)[1:]  # slots 1..T
-        inside = worth[:, keep].min(axis=1)
-        below = np.clip(inside[:, None] - worth, 0.0, None).sum(axis=0)
-        below[keep] = 0.0
-        if not below.any():
-            break  # no other sensor sets a minimum: the subset's plan is optimal for the whole
-        keep = sorted([*keep, int(np.argmax(below))])
+    with progress_bar(progress) as bar:
+        task = bar.add_task("dp subsets", total=None)
+        while len(keep) < N:
+            spent = time.perf_counter() - t0
+            if spent >= budget or stop.check() is not None:
+                break
+            bar.update(task, description=f"dp subset of {len(keep)} sensors{_line(tab, incumbent()[1], best)}")
+            sub = instance.replace(sensors=[sensors[i] for i in keep], name=f"{instance.name}-subset{len(keep)}")
+            r = solve(sub, budget - spent, _restricted(incumbent()[0], keep))
+            best = min(best, r.bound * tab.to_internal)
+            plan = Plan(r.plan.positions, tuple(None if u is None else keep[u] for u in r.plan.schedule))
+            offer(plan, f"subset of {len(keep)}")
+            if r.status != "optimal" or reaches(incumbent()[1], best):
+                break  # a larger subset would take longer still, or the bound is attained
+            joins = _furthest_below(instance, objective, plan, keep)
+            if joins is None:
+                break  # no other sensor sets a minimum: the subset's plan is optimal for the whole
+            keep = sorted([*keep, joins])
     return best
+
+
+def reaches(value: float, bound: float) -> bool:
+    """The plan's value equals the bound, up to the rounding of two sums of the same terms."""
+    return bool(np.isfinite(bound) and value >= bound - 1e-12 * abs(bound))
+
+
+def _furthest_below(instance: Instance, objective: str, plan: Plan, keep: list[int]) -> int | None:
+    """The sensor outside ``keep`` whose worth under ``plan`` falls furthest below the minimum
+    over ``keep`` (summed over slots 1..T), or None if none falls below it."""
+    sim = simulate(instance, plan)
+    aoi = objectives.get(objective).worth == "aoi"
+    worth = -np.asarray(sim.aoi, dtype=float)[1:] if aoi else np.asarray(sim.voi)[1:]
+    below = np.clip(worth[:, keep].min(axis=1)[:, None] - worth, 0.0, None).sum(axis=0)
+    below[keep] = 0.0
+    return int(np.argmax(below)) if below.any() else None
+
+
+def _line(tab, value: float, bound: float) -> str:
+    """Best value, bound and gap in the objective's units, for the progress bar."""
+    if not (np.isfinite(value) and np.isfinite(bound)):
+        return ""
+    best, top = value / tab.to_internal, bound / tab.to_internal
+    return f"  best {best:.6g}  bound {top:.6g}  gap {100 * objectives.gap(best, top):.3g} %"
 
 
 def _restricted(plan: Plan | None, keep: list[int]) -> Plan | None:

@@ -310,9 +310,9 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
                 return solve(sub, objective, time_limit=seconds, memory_limit=stop.memory_limit, warm_start=warm,
                              subsets=False)
 
-            relaxed = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda b: _reaches(best_value, b),
-                                        lambda: best_plan, solve_subset)
-        if out.stopped == LABEL_BUDGET and not _reaches(best_value, relaxed):
+            relaxed = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
+                                        solve_subset, progress)
+        if out.stopped == LABEL_BUDGET and not _dp_subsets.reaches(best_value, relaxed):
             out = search(tab, inc(), progress=progress, **limits)
             passes.append(("bounded", out))
     if out.plan is not None:
@@ -329,7 +329,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         offer(Plan.from_indices(instance, [tab.start, *lat.walk_home(tab.start, T - 1)], np.full(T, -1)), "idle")
     if out.complete:
         bound_internal, status = max(best_value, out.value), "optimal"
-    elif _reaches(best_value, relaxed):  # a plan as good as a subset's bound
+    elif _dp_subsets.reaches(best_value, relaxed):  # a plan as good as a subset's bound
         bound_internal, status = max(best_value, relaxed), "optimal"
     else:
         bound_internal, status = max(best_value, min(out.open_bound, relaxed)), stop.reason or TIME_LIMIT
@@ -351,11 +351,6 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         solver["stopped"] = stop.describe()
     return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=_external(tab, bound_internal),
                             runtime_s=stop.elapsed(), solver=solver)
-
-
-def _reaches(value: float, bound: float) -> bool:
-    """The plan's value equals the bound, up to the rounding of two sums of the same terms."""
-    return bool(np.isfinite(bound) and value >= bound - 1e-12 * abs(bound))
 
 
 def _greedy_plan(instance: Instance, objective: str, stop: Stop) -> Plan | None:
