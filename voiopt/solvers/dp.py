@@ -261,7 +261,7 @@ def solve(
 def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, warm_start, beam, greedy,
            collapse, bounding, tdma, pair_bound, tour_bound, subsets, fast_budget, quick_beam, progress) -> Result:
     tab = build_tables(instance, objective)
-    if tour_bound and tdma:
+    if tour_bound and tdma and objectives.get(objective).per_slot:  # the bottleneck ones: slower, no tighter (docs/dp.md)
         tab.with_tour_bound()
 
     best_plan: Plan | None = None
