@@ -6,8 +6,8 @@ dropped sensor become idle slots, which lowers no worth of the others). So the o
 proven bound) of the network restricted to any subset S of its sensors bounds the optimum of
 the whole, and the subset's plan is a legal plan of the whole. Where a few sensors decay much
 faster than the rest (rho ~ U(0, 1), the paper's networks), they set the minimum in almost
-every slot, and a subset of 3 to 6 of them, solved exactly in a fraction of a second, bounds
-networks of 12 or 16 sensors within a fraction of a percent.
+every slot, and a subset of 4 to 8 of them, solved exactly in seconds, bounds networks of 12
+or 16 sensors within a fraction of a percent, or proves their optimum.
 """
 
 from __future__ import annotations
@@ -40,9 +40,9 @@ def applies(objective: str, n_sensors: int) -> bool:
 
 
 def need_order(tab) -> list[int]:
-    """Sensors by how low the per-sensor relaxation keeps their worth from the start (the sum,
-    or for the bottleneck objectives the minimum, over slots of bound 1): those most likely to
-    set the minimum come first."""
+    """Sensors by how low the per-sensor relaxation keeps their worth from the start (bound 1
+    summed over slots; its minimum for a bottleneck objective): those most likely to set the
+    minimum come first."""
     from voiopt.solvers import _dp_core as core
 
     N, T = tab.W.shape[0], tab.W.shape[2] - 1
