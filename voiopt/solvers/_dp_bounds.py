@@ -62,17 +62,13 @@ def pair_table(W, up_rank, point_steps, sensor_points, sensor_point_count):
 
 
 @njit(cache=True)
-def pair_bound(rank, q, tau, t2, W, best_rank, pair, lo, hi):
+def pair_bound(rank, q, tau, t2, W, pair, lo, hi):
     """Upper bound on min_i V_i(t2) from every pair of sensors: both fresh needs both uploads,
-    in order, with the travel between them (pair_table); otherwise one keeps its value."""
+    in order, with the travel between them (pair_table); otherwise one keeps its value.
+    ``hi`` holds each sensor's per-sensor bound in t2 (filled by the caller); ``lo`` is scratch."""
     N = rank.shape[0]
     for i in range(N):
-        r = rank[i]
-        lo[i] = W[i, r, t2]
-        b = best_rank[i, q, tau, t2]
-        if b > r:
-            r = b
-        hi[i] = W[i, r, t2]
+        lo[i] = W[i, rank[i], t2]
     best = np.inf
     for i in range(N):
         for j in range(i + 1, N):
@@ -158,14 +154,10 @@ def tour_bound(rank, q, tau, t2, W, best_rank, steps, per_slot, hi, order, nn):
     i in S has worth <= c_i = W[i, max(rank_i, best rank from an upload by slot t2 - 1 - m), t2],
     so min_i V_i(t2) <= max_{i in S} c_i. S runs over the prefixes of the sensors sorted by their
     per-sensor bound (the weakest first); any S gives a bound, so the smallest is taken.
-    ``hi``, ``order`` and ``nn`` are scratch arrays of length N."""
+    ``hi`` holds those per-sensor bounds in t2 (filled by the caller); ``order`` and ``nn`` are
+    scratch arrays of length N."""
     N = rank.shape[0]
-    for i in range(N):  # per-sensor bounds, sorted by insertion into ``order``
-        r = rank[i]
-        b = best_rank[i, q, tau, t2]
-        if b > r:
-            r = b
-        hi[i] = W[i, r, t2]
+    for i in range(N):  # sorted by insertion into ``order``
         k = i
         while k > 0 and hi[order[k - 1]] > hi[i]:
             order[k] = order[k - 1]

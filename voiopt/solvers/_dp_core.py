@@ -117,6 +117,7 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
             if b > r:
                 r = b
             u = W[i, r, t2]
+            hi_buf[i] = u  # the per-sensor bound, which the tight bounds read again
             if u < m1:
                 m2 = m1
                 m1 = u
@@ -127,7 +128,7 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
         if tdma and N > 1:
             term = distinct_ages_bound(rank, q, tau, t2, W, best_rank, m1, scratch)
             if pair.shape[0] > 0:
-                v = pair_bound(rank, q, tau, t2, W, best_rank, pair, lo_buf, hi_buf)
+                v = pair_bound(rank, q, tau, t2, W, pair, lo_buf, hi_buf)
                 if v < term:
                     term = v
             if steps.shape[0] > 0:
