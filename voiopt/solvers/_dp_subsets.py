@@ -46,10 +46,8 @@ def need_order(tab) -> list[int]:
     from voiopt.solvers import _dp_core as core
 
     N, T = tab.W.shape[0], tab.W.shape[2] - 1
-    hi = np.empty((N, T))
-    for i in range(N):
-        for t2 in range(1, T + 1):
-            hi[i, t2 - 1] = tab.W[i, max(int(tab.initial_rank[i]), int(tab.best_rank[i, tab.start, 0, t2])), t2]
+    rank = np.maximum(tab.initial_rank[:, None], tab.best_rank[:, tab.start, 0, 1:])  # (N, T): slots 1..T
+    hi = tab.W[np.arange(N)[:, None], rank, np.arange(1, T + 1)[None, :]]
     score = hi.sum(axis=1) if tab.mode == core.SUM else hi.min(axis=1)
     return [int(i) for i in np.argsort(score, kind="stable")]
 
