@@ -272,12 +272,12 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
 
     work = Path(work_dir)
     work.mkdir(parents=True, exist_ok=True)
-    lib = instances()
+    every = lib = instances()
     if only is not None:
-        unknown = [n for n in only if n not in lib]
+        unknown = [n for n in only if n not in every]
         if unknown:
             raise OptionError(f"--only: {unknown[0]!r} is no VoI-Lib {VERSION} instance")
-        lib = {n: lib[n] for n in only}
+        lib = {n: every[n] for n in only}
     tasks, plan = [], []
     for name, inst in lib.items():
         for objective in OBJECTIVES:
@@ -298,7 +298,6 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     path = target / "certificates.json"
     if only is not None and path.exists():  # --only updates those entries and keeps the others
         kept = read_json(path).get("instances", {})
-        every = instances()
         for name, entry in kept.items():
             if name in every and entry.get("sha256") == instance_hash(every[name]):
                 out["instances"].setdefault(name, entry)
