@@ -151,3 +151,8 @@ def test_the_subsets_certify_twelve_sensors_where_the_full_search_alone_does_not
     assert r.status == "optimal" and r.value == r.bound == r.solver["subset_bound"]
     assert any(source.startswith("subset of") for source, _ in r.solver["incumbents"])
     assert r.value >= alone.value and r.bound <= alone.bound
+    runs = r.solver["subsets"]  # each subset solved, one sensor more than the last, its labels counted
+    assert [len(run["sensors"]) for run in runs] == list(range(_dp_subsets.FIRST, _dp_subsets.FIRST + len(runs)))
+    assert all(set(a["sensors"]) < set(b["sensors"]) for a, b in zip(runs, runs[1:], strict=False))
+    assert min(run["bound"] for run in runs) == pytest.approx(r.solver["subset_bound"], rel=1e-12)
+    assert r.solver["labels"] == sum(p["labels"] for p in r.solver["passes"].values()) + sum(run["labels"] for run in runs)

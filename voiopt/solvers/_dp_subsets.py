@@ -52,10 +52,12 @@ def need_order(tab) -> list[int]:
     return [int(i) for i in np.argsort(score, kind="stable")]
 
 
-def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent, solve, progress: bool = False) -> float:
+def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent, solve,
+          progress: bool = False) -> tuple[float, list[dict]]:
     """The smallest bound (internal units) over a growing subset of the sensors, each subset
-    solved by ``solve(subset, seconds, warm_start)`` (dp) within the subsets' time budget; +inf
-    if none finished in time.
+    solved by ``solve(subset, seconds, warm_start)`` (dp) within the subsets' time budget (+inf
+    if none finished in time), and one record per subset solved: its sensors, status, seconds,
+    labels and bound (the objective's units), for ``solver.subsets``.
 
     The subset starts with the sensors that ``need_order`` puts first. dp solves it from the
     best plan so far (``incumbent()``: plan or None, and its internal value) restricted to it;
@@ -66,13 +68,14 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
     ``progress`` shows each subset with the best value, the bound and the gap."""
     N = instance.n_sensors
     if not applies(objective, N):
-        return np.inf
+        return np.inf, []
     left = stop.remaining()
     budget = SECONDS if left is None else SHARE * max(left, 0.0)
     t0 = time.perf_counter()
     keep = sorted(need_order(tab)[:FIRST])
     sensors = instance.to_dict()["sensors"]
     best = np.inf
+    records: list[dict] = []
     with progress_bar(progress) as bar:
         task = bar.add_task("dp subsets", total=None)
         while len(keep) < N:
@@ -83,6 +86,8 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
             sub = instance.replace(sensors=[sensors[i] for i in keep], name=f"{instance.name}-subset{len(keep)}")
             r = solve(sub, budget - spent, _restricted(incumbent()[0], keep))
             best = min(best, r.bound * tab.to_internal)
+            records.append(dict(sensors=list(keep), status=r.status, runtime_s=r.runtime_s,
+                                labels=r.solver["labels"], bound=r.bound))
             plan = Plan(r.plan.positions, tuple(None if u is None else keep[u] for u in r.plan.schedule))
             offer(plan, f"subset of {len(keep)}")
             if r.status != "optimal" or reaches(incumbent()[1], best):
@@ -91,7 +96,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
             if joins is None:
                 break  # no other sensor sets a minimum: the subset's plan is optimal for the whole
             keep = sorted([*keep, joins])
-    return best
+    return best, records
 
 
 def reaches(value: float, bound: float) -> bool:

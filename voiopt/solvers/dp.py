@@ -290,7 +290,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if b.plan is not None:
             offer(Plan.from_indices(instance, *b.plan), f"beam {width}")
 
-    relaxed = np.inf  # the subsets' bound (internal units), if they ran
+    relaxed, subset_runs = np.inf, []  # the subsets' bound (internal units) and their records, if they ran
     if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
         beam_pass(quick_beam)
     out = search(tab, inc(), label_budget=fast_budget, progress=progress, **limits)
@@ -310,7 +310,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
                 return solve(sub, objective, time_limit=seconds, memory_limit=stop.memory_limit, warm_start=warm,
                              subsets=False)
 
-            relaxed = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
+            relaxed, subset_runs = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
                                         solve_subset, progress)
         if out.stopped == LABEL_BUDGET and not _dp_subsets.reaches(best_value, relaxed):
             out = search(tab, inc(), progress=progress, **limits)
@@ -337,7 +337,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         "passes": {name: dict(labels=p.labels, children_generated=p.generated, peak_layer_labels=p.peak_layer,
                               slots_done=p.slots_done, complete=p.complete)
                    for name, p in passes},
-        "labels": sum(p.labels for _, p in passes),
+        "labels": sum(p.labels for _, p in passes) + sum(r["labels"] for r in subset_runs),
         "peak_label_bytes": max(p.peak_bytes for _, p in passes),
         "incumbents": incumbents,
         "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding, "tdma": tdma,
@@ -347,6 +347,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     solver["startup_s"] = startup_s
     if np.isfinite(relaxed):
         solver["subset_bound"] = _external(tab, relaxed)
+    if subset_runs:
+        solver["subsets"] = subset_runs
     if status != "optimal":
         solver["stopped"] = stop.describe()
     return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=_external(tab, bound_internal),
