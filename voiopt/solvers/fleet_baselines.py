@@ -18,7 +18,6 @@ import math
 from collections.abc import Callable, Iterator
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from voiopt import lattice as lattice_mod
 from voiopt.instance import Instance
@@ -39,6 +38,14 @@ class NoJointPlan(Exception):
     def __init__(self, message: str, proved: bool) -> None:
         super().__init__(message)
         self.proved = proved
+
+
+def _assignment(cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """scipy's linear_sum_assignment, imported on first use: scipy.optimize is 0.2 to 0.3 s of
+    start-up, which one-robot commands (dp's and greedy's, through baselines) never need."""
+    from scipy.optimize import linear_sum_assignment
+
+    return linear_sum_assignment(cost)
 
 
 def _lattices(instance: Instance) -> list[lattice_mod.Lattice]:
@@ -206,7 +213,7 @@ def clusters(instance: Instance, sensors: list[int], iterations: int = 20) -> li
     label = np.zeros(len(sensors), dtype=np.int64)
     for _ in range(iterations):
         cost = np.hypot(pos[:, None, 0] - centres[None, :, 0], pos[:, None, 1] - centres[None, :, 1])
-        rows, cols = linear_sum_assignment(np.repeat(cost, cap, axis=1))
+        rows, cols = _assignment(np.repeat(cost, cap, axis=1))
         new = np.empty(len(sensors), dtype=np.int64)
         new[rows] = cols // cap
         if _ and (new == label).all():
@@ -217,7 +224,7 @@ def clusters(instance: Instance, sensors: list[int], iterations: int = 20) -> li
     groups = [[sensors[j] for j in np.flatnonzero(label == c)] for c in range(k_eff)] + [[]] * (K - k_eff)
     cost = np.array([[min((int(lat.from_start[lat.in_range[i]].min()) for i in g), default=0) for g in groups]
                      for lat in lats], dtype=float)
-    rows, cols = linear_sum_assignment(cost)
+    rows, cols = _assignment(cost)
     return [groups[c] for c in cols[np.argsort(rows)]]
 
 
@@ -353,7 +360,7 @@ def _assign_targets(worst: list[int], cur, to_sensor) -> list[int]:
     if not worst:
         return [-1] * K
     cost = np.array([[to_sensor[i, p] for i in worst] for p in cur])
-    rows, cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e9))
+    rows, cols = _assignment(np.where(np.isfinite(cost), cost, 1e9))
     out = [-1] * K
     for r, c in zip(rows, cols, strict=True):
         out[r] = worst[c]
