@@ -23,6 +23,7 @@ from voiopt.generate import PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
 from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
+from voiopt.solvers import _numba_start
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 from voiopt.stop import last_signal
 
@@ -388,7 +389,9 @@ def run() -> None:
     cached kernels build a large graph of long-lived objects, which collections would walk again
     and again (about 0.2 s of start-up), and one solve leaves next to no cyclic garbage (100 to
     2400 objects, measured on the case study). Sweeps keep the collector. Whatever is alive at
-    exit is frozen rather than walked once more on the way out (about 0.4 s)."""
+    exit is frozen rather than walked once more on the way out (about 0.4 s). numba starts
+    without its BLAS check (voiopt.solvers._numba_start, 0.2 to 0.3 s)."""
+    _numba_start.QUICK = True  # numba starts without its BLAS check: voiopt's kernels need none
     if sys.argv[1:2] == ["solve"]:
         gc.disable()
     try:

@@ -22,7 +22,7 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
-from voiopt.solvers import _dp_subsets
+from voiopt.solvers import _dp_subsets, _numba_start
 from voiopt.solvers._dp_shared import (
     CHUNK_WORK,
     PAIR_TABLE_BYTES,
@@ -207,6 +207,7 @@ def warm_up() -> float:
     from voiopt.generate import generate
 
     t0 = time.perf_counter()
+    _numba_start.start()
     tiny = generate(2, 4, width=2.0, height=2.0, seed=0, name="warm-up")
     for objective in objectives.OBJECTIVES:
         solve(tiny, objective, fast_budget=1)  # every pass and bound runs once

@@ -21,6 +21,7 @@ from voiopt.objectives import check_objective
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
+from voiopt.solvers import _numba_start
 from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, table_bytes, watched
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, require_memory
 from voiopt.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, watch
@@ -235,6 +236,7 @@ def warm_up() -> float:
     from voiopt.objectives import OBJECTIVES
 
     t0 = time.perf_counter()
+    _numba_start.start()
     d = generate(2, 3, width=1.0, height=1.0, seed=0, name="warm-up").to_dict()
     del d["start"]
     d["robots"] = [{"start": [0, 0]}, {"start": [1, 1]}]

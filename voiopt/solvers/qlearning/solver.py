@@ -19,7 +19,7 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate_indices
-from voiopt.solvers import base
+from voiopt.solvers import _numba_start, base
 from voiopt.solvers.qlearning import _fleet
 from voiopt.solvers.qlearning._kernels import rollout, train
 from voiopt.solvers.qlearning._qtable import QTable
@@ -43,6 +43,7 @@ def warm_up(fleet: bool = False) -> float:
     from voiopt.instance import from_dict
 
     t0 = time.perf_counter()
+    _numba_start.start()
     tiny = generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up")
     if fleet:
         tiny = tiny.to_dict()
