@@ -201,3 +201,22 @@ def test_randomised_methods_run_once_per_seed_through_the_cli(tmp_path, nets):
     # the bit/s/Hz reading is another experiment: not mixed into the same folder
     assert main(["gap-report", str(nets), "--methods", "qlearning", "--reward-units", "bit/s/Hz",
                  "-o", str(out), "--quiet"]) == 2
+
+
+def test_a_changed_instance_of_the_same_name_is_run_again_not_reused(tmp_path, nets):
+    """A resume reuses a stored result only for the instance it was made from: an instance
+    file replaced by another of the same name (another rho, here) is solved again."""
+    folder = tmp_path / "nets"
+    write_set(generate_set(2, seed=21, n_sensors=2, horizon=6, width=2, height=2, rho=(0.2, 0.9)), folder)
+    out = tmp_path / "report"
+    first = {r["instance"]: r for r in report.gap_report([folder], ["greedy"], "mean-min-voi", out)}
+    changed = voiopt.generate(2, 6, width=2, height=2, seed=21, rho=(0.95, 0.99), name=sorted(first)[0])
+    write_set([changed], folder)  # the same file name, other content
+    notes: list[str] = []
+    again = {r["instance"]: r for r in report.gap_report([folder], ["greedy"], "mean-min-voi", out, notes=notes)}
+    fresh = voiopt.solve(changed, "greedy", "mean-min-voi")
+    assert again[changed.name]["value"] == pytest.approx(fresh.value, rel=1e-12) != first[changed.name]["value"]
+    other = sorted(first)[1]
+    assert again[other]["value"] == first[other]["value"]  # the unchanged instance is reused
+    assert any(changed.name in n and "changed" in n for n in notes)
+    assert changed.name in (out / "summary.md").read_text()

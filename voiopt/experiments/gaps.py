@@ -182,7 +182,8 @@ def gap_report(
     instances_found = load_instances(instances, notes)
     tasks = plan_tasks(instances_found, methods, objective, out, seed=seed, seeds=seeds, **options)
     check_manifest(out, {"command": "gap-report", "objective": objective, "seed": seed, "seeds": seeds, **options})
-    run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="runs")
+    run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="runs",
+              notes=notes)
     results = [load_result(t.out_path) for t in tasks]
     rows = gap_rows(results, objective, [t.seed for t in tasks])
     write_csv(out / "gaps.csv", rows, GAP_COLUMNS)

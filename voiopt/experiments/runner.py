@@ -7,6 +7,7 @@ records the settings of a folder so that two experiments are never mixed.
 
 from __future__ import annotations
 
+import hashlib
 import inspect
 import json
 import os
@@ -21,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from voiopt import instance as instance_mod
-from voiopt._files import read_json, safe_name, write_json_atomic
+from voiopt._files import atomic_write, read_json, safe_name, write_json_atomic
 from voiopt.errors import MissingExtraError, OptionError, VoioptError
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
@@ -217,13 +218,60 @@ def make_executor(workers: int, dask_scheduler: str | None):
             cluster.close()
 
 
+FINGERPRINTS = "instances.sha256"  # in each results folder: "<sha256>  <instance name>" lines
+
+
+def fingerprint(instance: dict[str, Any]) -> str:
+    """A hash of an instance's content (its canonical dict), to tell a changed instance from
+    the one a stored result was made from."""
+    return hashlib.sha256(json.dumps(instance, sort_keys=True).encode("utf-8", "surrogatepass")).hexdigest()
+
+
+def _read_fingerprints(path: Path) -> dict[str, str]:
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines() if path.is_file() else []
+    except (OSError, ValueError):
+        return {}
+    return {line[66:]: line[:64] for line in lines if len(line) > 66 and line[64:66] == "  "}
+
+
+def forget_changed(tasks: Sequence[Task], notes: list[str] | None = None) -> list[str]:
+    """A stored result is done only for the instance it was made from. Each results folder's
+    ``instances.sha256`` records the fingerprint of every instance run into it; where an
+    instance of the same name has changed since, its stored results are deleted (the sweep
+    runs them again) and a line goes to ``notes``. Returns the changed names. The deletions
+    come before the new fingerprints are written, so a crash between the two cannot leave a
+    stale result that counts as done."""
+    folders: dict[Path, list[Task]] = {}
+    for t in tasks:
+        folders.setdefault(Path(t.out_path).parent, []).append(t)
+    changed_all: list[str] = []
+    for folder, mine in folders.items():
+        path = folder / FINGERPRINTS
+        old = _read_fingerprints(path)
+        new = {t.instance_name: fingerprint(t.instance) for t in mine}
+        changed = sorted(name for name, f in new.items() if name in old and old[name] != f)
+        for t in mine:
+            if t.instance_name in changed:
+                Path(t.out_path).unlink(missing_ok=True)
+        if changed and notes is not None:
+            notes.append(f"ran again: {', '.join(changed)} (changed since their results in {folder} were stored)")
+        if any(old.get(name) != f for name, f in new.items()):
+            with atomic_write(path) as f:
+                f.writelines(f"{h}  {name}\n" for name, h in sorted({**old, **new}.items()))
+        changed_all += changed
+    return changed_all
+
+
 def run_tasks(
     tasks: Sequence[Task], *, workers: int = 1, dask_scheduler: str | None = None,
-    progress: bool = False, description: str = "runs",
+    progress: bool = False, description: str = "runs", notes: list[str] | None = None,
 ) -> int:
-    """Run the tasks not yet done; return how many were run. Each finished result is written
+    """Run the tasks not yet done (``forget_changed``: a result stored for another instance of
+    the same name is not done); return how many were run. Each finished result is written
     at once. Ctrl-C or SIGTERM stops the whole sweep: what has not started is cancelled,
     running solves stop with their best plan (not stored), and Interrupted is raised."""
+    forget_changed(tasks, notes)
     todo = [t for t in tasks if not is_done(t.out_path)]
     groups = _group_sizes(tasks)
     left = {g: sum(1 for t in todo if t.group == g) for g in groups}
