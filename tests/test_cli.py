@@ -102,6 +102,22 @@ def test_generate_set_is_deterministic(capsys, tmp_path):
     assert all(0.2 <= s.rho <= 0.3 and s.power_w == 0.01 for s in inst.sensors)
 
 
+
+def test_generate_refuses_to_replace_other_instances_of_the_same_name(capsys, tmp_path):
+    """File names depend on N, T and the seed alone: another --rho must not replace a set."""
+    args = ["generate", "--sensors", "2", "--horizon", "6", "--count", "2", "--seed", "1", "--out", str(tmp_path)]
+    assert run(capsys, *args)[0] == 0
+    before = {p.name: p.read_text() for p in tmp_path.iterdir()}
+    assert run(capsys, *args)[0] == 0  # the same set again: nothing changes
+    assert {p.name: p.read_text() for p in tmp_path.iterdir()} == before
+    code, _, err = run(capsys, *args, "--rho", "0.2", "0.3")
+    line = one_line_error(err)
+    assert code == 2 and "--out" in line and "already holds another instance" in line
+    assert {p.name: p.read_text() for p in tmp_path.iterdir()} == before  # nothing written
+    assert run(capsys, *args, "--rho", "0.2", "0.3", "--overwrite")[0] == 0
+    after = {p.name: voiopt.load(p) for p in tmp_path.iterdir()}
+    assert after.keys() == before.keys() and all(0.2 <= s.rho <= 0.3 for i in after.values() for s in i.sensors)
+
 @pytest.mark.parametrize(
     "argv,message",
     [

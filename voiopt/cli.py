@@ -128,7 +128,7 @@ def cmd_generate(args) -> int:
         return 0
     check_output_dir(args.out, "--out")
     insts = generate_set(args.count, seed=args.seed, preset=args.preset, name=args.name, **kwargs)
-    paths = write_set(insts, args.out)
+    paths = write_set(insts, args.out, overwrite=args.overwrite)
     out.print(f"wrote {len(paths)} instance(s) to {args.out}", markup=False)
     return 0
 
@@ -301,6 +301,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--count", type=int, default=1)
     s.add_argument("--name", default=None, help="name prefix of the instances")
     s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
+    s.add_argument("--overwrite", action="store_true",
+                   help="replace files in --out that hold other instances (default: refuse, write nothing)")
 
     s = sub.add_parser("solve", help="solve an instance and write the result JSON")
     s.add_argument("instance", metavar="INSTANCE")

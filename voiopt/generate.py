@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from importlib import resources
 from pathlib import Path
@@ -96,14 +97,29 @@ def generate_set(count: int, seed: int = 0, preset: str | None = None, **kwargs)
     return out
 
 
-def write_set(instances: list[Instance], out_dir: str | os.PathLike) -> list[Path]:
+def write_set(instances: list[Instance], out_dir: str | os.PathLike, *, overwrite: bool = True) -> list[Path]:
+    """Write each instance to ``out_dir/<name>.json``. With ``overwrite=False`` (the command
+    line's default), nothing is written if a file there already holds another instance: a
+    name depends on N, T and the seed alone, so two different sets (another rho, say) would
+    otherwise replace each other's files silently. Rewriting the same instance is fine."""
     out = Path(out_dir)
-    paths = []
-    for inst in instances:
-        p = out / f"{_files.safe_name(inst.name)}.json"
+    paths = [out / f"{_files.safe_name(inst.name)}.json" for inst in instances]
+    if not overwrite:
+        for inst, p in zip(instances, paths, strict=True):
+            if p.exists() and not _holds(p, inst):
+                raise OptionError(f"--out: {p} already holds another instance; choose another --out or --name, "
+                                  "or --overwrite")
+    for inst, p in zip(instances, paths, strict=True):
         instance_mod.save(inst, p)
-        paths.append(p)
     return paths
+
+
+def _holds(path: Path, inst: Instance) -> bool:
+    """The file is this instance, as save() writes it."""
+    try:
+        return json.loads(path.read_text(encoding="utf-8")) == json.loads(json.dumps(inst.to_dict()))
+    except (OSError, ValueError):
+        return False
 
 
 def _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi) -> None:
