@@ -26,5 +26,6 @@ class MissingExtraError(VoioptError):
 
     def __init__(self, module: str, extra: str):
         super().__init__(
-            f"this needs the optional package '{module}': pip install 'voiopt[{extra}]'"
+            f"this needs the optional package '{module}': in a clone, .venv/bin/pip install -e '.[{extra}]' "
+            f"(an installed voiopt: pip install 'voiopt[{extra}]')"
         )
