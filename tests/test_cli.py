@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from conftest import ROOT
@@ -151,3 +152,21 @@ def test_installed_command_has_no_traceback(tmp_path):
 def test_demo_prints_the_case_study_metrics(capsys):
     code, out, _ = run(capsys, "demo")
     assert code == 0 and "case-study" in out and "mean-min-voi" in out
+
+
+def test_evaluate_and_warm_start_name_the_plan_file_and_refuse_another_instance_s_result(capsys, tmp_path):
+    result = tmp_path / "case.json"
+    assert run(capsys, "solve", CASE, "--method", "greedy", "--quiet", "-o", str(result))[0] == 0
+    dock = str(Path(CASE).with_name("dock.json"))
+    code, _, err = run(capsys, "evaluate", dock, str(result))
+    assert code == 2 and one_line_error(err).endswith(f'{result}: a result for instance "case-study", not for "dock"')
+    for argv in (["evaluate", CASE, dock], ["solve", CASE, "--method", "dp", "--quiet", "--warm-start", dock]):
+        code, _, err = run(capsys, *argv)
+        assert code == 2 and f"{dock}: an instance, not a plan" in one_line_error(err)
+    plan = json.loads(result.read_text())["plan"]
+    plan["positions"][1] = [4.0, 4.0]
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(plan))
+    code, _, err = run(capsys, "evaluate", CASE, str(bad))
+    assert code == 2 and one_line_error(err).startswith(f"voiopt: error: {bad}: positions[1]: [4, 4] is not one")
+    assert run(capsys, "evaluate", CASE, str(result))[0] == 0  # its own instance: fine

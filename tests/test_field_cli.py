@@ -106,7 +106,7 @@ def test_impossible_instance_and_illegal_plan_exit_2(capsys, tmp_path):
     plan.write_text(json.dumps({"positions": [[0, 0]] * 30, "schedule": [None] * 30}))
     code, _, err = run(capsys, "evaluate", DOCK, str(plan))
     assert code == 2
-    assert one_line_error(err) == "voiopt: error: positions[29]: must equal end [4, 4] in the last slot, got [0, 0]"
+    assert one_line_error(err) == f"voiopt: error: {plan}: positions[29]: must equal end [4, 4] in the last slot, got [0, 0]"
 
 
 def test_shipped_examples(capsys, tmp_path):

@@ -161,4 +161,4 @@ def test_5_hostile_plans(tmp_path, content, expected):
     r = voiopt("evaluate", str(CASE_STUDY), str(plan), cwd=tmp_path)
     assert r.returncode == 2, r.stdout + r.stderr
     assert "Traceback" not in r.stderr and r.stdout == ""
-    assert r.stderr.splitlines() == [f"voiopt: error: {expected}"]
+    assert r.stderr.splitlines() == [f"voiopt: error: {plan}: {expected}"]

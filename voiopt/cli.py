@@ -17,7 +17,7 @@ from voiopt import fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file
 from voiopt.cli_bench import add_commands as add_bench_commands
-from voiopt.errors import OptionError, VoioptError
+from voiopt.errors import OptionError, PlanError, VoioptError
 from voiopt.experiments.runner import WorkerDied
 from voiopt.generate import PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
@@ -82,8 +82,11 @@ def cmd_validate(args) -> int:
 
 def cmd_evaluate(args) -> int:
     inst = instance_mod.load(args.instance)
-    plan = voiopt.load_plan(args.plan)
-    metrics = voiopt.evaluate(inst, plan)
+    plan = voiopt.load_plan(args.plan, inst.name)
+    try:
+        metrics = voiopt.evaluate(inst, plan)
+    except PlanError as e:  # the plan breaks a rule of this instance: name the plan's file
+        raise PlanError(f"{args.plan}: {e}") from None
     if args.json:
         print(json.dumps({"instance": inst.name, "metrics": metrics}, indent=2))
     else:
@@ -133,14 +136,14 @@ def cmd_generate(args) -> int:
     return 0
 
 
-def _solve_options(args) -> dict:
+def _solve_options(args, inst_name: str) -> dict:
     opts = {}
     for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units"):
         v = getattr(args, key, None)
         if v is not None:
             opts[key] = v
     if args.warm_start is not None:
-        opts["warm_start"] = voiopt.load_plan(args.warm_start)
+        opts["warm_start"] = voiopt.load_plan(args.warm_start, inst_name)
     if not args.quiet and not args.json:
         opts["progress"] = True
     if args.verbose:
@@ -152,7 +155,7 @@ def cmd_solve(args) -> int:
     if args.output:
         check_output_file(args.output)  # before the work, not after it
     inst = instance_mod.load(args.instance)
-    result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args))
+    result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst.name))
     if args.output:
         result.save(args.output)
     if args.json:
