@@ -309,7 +309,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("solve", help="solve an instance and write the result JSON")
     s.add_argument("instance", metavar="INSTANCE")
-    s.add_argument("--method", default="milp", help=f"one of {', '.join(voiopt.METHODS)} (default milp)")
+    s.add_argument("--method", default="dp", help=f"one of {', '.join(voiopt.METHODS)} (default dp, the fastest exact "
+                   "method; milp for three robots or more)")
     s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="seconds (default: none)")
     s.add_argument("--gap", type=float, default=None, metavar="G", help="milp: relative MIP gap (default 0: exact)")

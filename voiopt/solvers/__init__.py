@@ -50,8 +50,9 @@ def solver_function(method: str):
     return getattr(importlib.import_module(module), function)
 
 
-def solve(instance: Instance, method: str = "milp", objective: str = DEFAULT, **options: Any) -> Result:
-    """Solve ``instance`` with ``method`` for ``objective``; every value in the Result is simulated."""
+def solve(instance: Instance, method: str = "dp", objective: str = DEFAULT, **options: Any) -> Result:
+    """Solve ``instance`` with ``method`` (by default dp, the fastest exact method) for
+    ``objective``; every value in the Result is simulated."""
     check_objective(objective)
     fn = solver_function(method)
     check_robots(instance, method)
