@@ -170,3 +170,18 @@ def test_evaluate_and_warm_start_name_the_plan_file_and_refuse_another_instance_
     code, _, err = run(capsys, "evaluate", CASE, str(bad))
     assert code == 2 and one_line_error(err).startswith(f"voiopt: error: {bad}: positions[1]: [4, 4] is not one")
     assert run(capsys, "evaluate", CASE, str(result))[0] == 0  # its own instance: fine
+
+
+def test_a_plan_or_result_given_as_an_instance_and_a_missing_command_get_one_line(capsys, tmp_path):
+    plan = tmp_path / "p.json"
+    plan.write_text(json.dumps(CASE_STUDY_PLAN))
+    result = tmp_path / "r.json"
+    assert run(capsys, "solve", CASE, "--method", "greedy", "--quiet", "-o", str(result))[0] == 0
+    for path, what in ((plan, "a plan"), (result, "a result JSON")):
+        code, _, err = run(capsys, "validate", str(path))
+        assert code == 2 and one_line_error(err) == (f"{path}: {what}, not an instance (an instance has area, "
+                                                     "horizon, sensors and start)")
+    with pytest.raises(SystemExit) as e:
+        main([])
+    line = one_line_error(capsys.readouterr().err)
+    assert e.value.code == 2 and line.startswith("voiopt: error: give a command: validate, evaluate,") and "solve" in line

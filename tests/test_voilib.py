@@ -103,6 +103,14 @@ def test_score_rejects_a_forged_value():
         voilib.score(sub)
 
 
+def test_score_needs_an_objective_but_no_value():
+    sub = _submission("paper-n4-t30-000", "mean-min-voi")
+    unstated = {k: v for k, v in sub.items() if k != "value"}
+    assert voilib.score(unstated)["value"] == sub["value"]  # the simulator's value either way
+    with pytest.raises(OptionError, match=r"^RESULT: objective: is required \(one of min-voi, "):
+        voilib.score({k: v for k, v in sub.items() if k != "objective"})
+
+
 def test_bench_commands(capsys, tmp_path):
     code, out, _ = run(capsys, "bench", "list")
     assert code == 0 and "paper-n4-t30-000" in out and "factory-n12-t100-000" in out

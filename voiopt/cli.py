@@ -33,6 +33,9 @@ err = Console(stderr=True, highlight=False, soft_wrap=True)
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2 (argparse prints usage too)
+        if message.startswith("the following arguments are required: command"):
+            commands = next(a for a in self._actions if isinstance(a, argparse._SubParsersAction)).choices
+            message = f"give a command: {', '.join(commands)} (voiopt COMMAND --help for each)"
         err.print(f"{self.prog}: error: {message}", markup=False)
         raise SystemExit(2)
 
@@ -198,7 +201,7 @@ def cmd_gap_report(args) -> int:
     if not args.quiet:
         md = (Path(args.output) / "summary.md").read_text(encoding="utf-8")
         out.print(md.split("![")[0].rstrip(), markup=False)
-        out.print(f"written: {args.output}/gaps.csv, summary.md, gaps.png, results/", markup=False)
+        out.print(f"written: {Path(args.output) / 'gaps.csv'}, summary.md, gaps.png, results/", markup=False)
     return 0
 
 
@@ -268,10 +271,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     s = _command(sub, "validate", "check instance files; print ok or the errors", cmd_validate)
-    s.add_argument("instances", nargs="+", metavar="INSTANCE")
+    s.add_argument("instances", nargs="+", metavar="INSTANCE", help="instance JSON files")
 
     s = _command(sub, "evaluate", "simulate a plan and print its four metrics", cmd_evaluate)
-    s.add_argument("instance", metavar="INSTANCE")
+    s.add_argument("instance", metavar="INSTANCE", help="an instance JSON file")
     s.add_argument("plan", metavar="PLAN", help="a plan object or a whole result JSON")
     s.add_argument("--json", action="store_true", help="print a JSON object with key 'metrics'")
 
@@ -300,15 +303,16 @@ def build_parser() -> argparse.ArgumentParser:
                         "them at the free points nearest the dock")
     s.add_argument("--dock", action="store_true",
                    help="with --robots: start the robots at the free points nearest robot 0's start")
-    s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--count", type=int, default=1)
-    s.add_argument("--name", default=None, help="name prefix of the instances")
+    s.add_argument("--seed", type=int, default=0, help="the networks depend on it alone (default 0)")
+    s.add_argument("--count", type=int, default=1, help="how many networks; more than one needs --out (default 1)")
+    s.add_argument("--name", default=None,
+                   help="name prefix of the instances (default nN-tT-seedS, or factory-nN-tT-seedS)")
     s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
     s.add_argument("--overwrite", action="store_true",
                    help="replace files in --out that hold other instances (default: refuse, write nothing)")
 
     s = sub.add_parser("solve", help="solve an instance and write the result JSON")
-    s.add_argument("instance", metavar="INSTANCE")
+    s.add_argument("instance", metavar="INSTANCE", help="an instance JSON file")
     s.add_argument("--method", default="dp", help=f"one of {', '.join(voiopt.METHODS)} (default dp, the fastest exact "
                    "method; milp for three robots or more)")
     s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")
@@ -328,25 +332,28 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_solve)
 
     s = _command(sub, "export", "write the MILP of an instance as MPS or LP (by extension)", cmd_export)
-    s.add_argument("instance", metavar="INSTANCE")
+    s.add_argument("instance", metavar="INSTANCE", help="an instance JSON file")
     s.add_argument("model", metavar="MODEL", help="output file, .mps or .lp")
-    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES))
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")
     s.add_argument("--covering-level", type=int, default=None, metavar="K",
                    help="min-voi, max-aoi: write the bisection's covering problem for the K-th smallest candidate "
-                        "worth instead (0-based)")
+                        "worth instead (0-based; default: the objective's own MILP)")
 
     s = _command(sub, "gap-report", "proven optimality gaps of several methods over many networks", cmd_gap_report)
     s.add_argument("instances", nargs="+", metavar="INSTANCES", help="instance files or folders of them")
-    s.add_argument("--methods", default="dp,qlearning,aoi-qlearning,shortest-path", help="comma-separated")
-    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES))
+    s.add_argument("--methods", default="dp,qlearning,aoi-qlearning,shortest-path",
+                   help="comma-separated (default dp,qlearning,aoi-qlearning,shortest-path)")
+    s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="per run (default: none)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
-    s.add_argument("-o", "--output", required=True, metavar="DIR")
-    s.add_argument("--quiet", action="store_true")
+    s.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="gaps.csv, summary.md, gaps.png and results/ (one JSON per run) go here; a re-run resumes")
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
 
     s = _command(sub, "figures", "reproduce the paper's figures with the proven optimum", cmd_figures)
-    s.add_argument("--out", required=True, metavar="DIR")
+    s.add_argument("--out", required=True, metavar="DIR",
+                   help="the figures (PNG and CSV), figures.md and results/ go here; a re-run resumes")
     s.add_argument("--networks", type=int, default=40, help="networks per setting (default 40)")
     s.add_argument("--robot-networks", type=int, default=10, metavar="N",
                    help="networks per number of robots in Fig. 8 (default 10: joint Q-learning is slow)")
@@ -354,17 +361,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="dp limit per network, and milp's in Fig. 8 (default 60)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
-    s.add_argument("--quiet", action="store_true")
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
 
     s = _command(sub, "plot", "draw the trajectory of a result", cmd_plot)
-    s.add_argument("result", metavar="RESULT")
+    s.add_argument("result", metavar="RESULT", help="a result JSON (voiopt solve -o)")
     s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: instances/NAME.json")
-    s.add_argument("-o", "--output", required=True, metavar="PNG")
+    s.add_argument("-o", "--output", required=True, metavar="PNG", help="the image to write")
 
     s = _command(sub, "methods", "list the solution methods", lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])
 
     s = _command(sub, "demo", "run the main job on the shipped case study", cmd_demo)
-    s.add_argument("instance", nargs="?", default=None, metavar="INSTANCE")
+    s.add_argument("instance", nargs="?", default=None, metavar="INSTANCE",
+                   help="(default: the shipped case study, instances/case-study.json)")
 
     add_bench_commands(sub, _command, _add_executor_options)
     return p

@@ -86,10 +86,11 @@ def add_commands(sub, command, add_executor_options) -> None:
     s = command(bench, "list", "the instances, their sizes and certified values", cmd_bench_list)
     s.add_argument("--markdown", action="store_true", help="print a Markdown table")
     s = command(bench, "export", "write the instances and certificates.json to a folder", cmd_bench_export)
-    s.add_argument("--out", required=True, metavar="DIR")
+    s.add_argument("--out", required=True, metavar="DIR", help="the instances' JSON files and certificates.json go here")
     s = command(bench, "score", "re-simulate results and print their gaps to the certificates", cmd_bench_score)
     s.add_argument("results", nargs="+", metavar="RESULT",
-                   help="result JSON files with instance (or instance_sha256), objective, plan and value")
+                   help="result JSON files with instance (or instance_sha256), objective and plan; a value, if given, "
+                        "must be what the plan gives")
     s = command(bench, "certify", "rebuild certificates.json with dp and the MILP (resumable)", cmd_bench_certify)
     s.add_argument("--work", required=True, metavar="DIR", help="where each run's result is kept, for resuming")
     s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="per run (default 60)")
@@ -97,14 +98,14 @@ def add_commands(sub, command, add_executor_options) -> None:
                    help="where certificates.json goes (default: the package's VoI-Lib folder)")
     s.add_argument("--only", default=None, metavar="NAME,...", help="certify these instances alone")
     add_executor_options(s)
-    s.add_argument("--quiet", action="store_true")
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
 
     s = command(sub, "import-solution", "read a MILP solver's solution back into a plan and a result",
                 cmd_import_solution)
-    s.add_argument("instance", metavar="INSTANCE")
+    s.add_argument("instance", metavar="INSTANCE", help="the instance JSON the model was exported from")
     s.add_argument("model", metavar="MODEL", help="the .mps or .lp that voiopt export wrote")
     s.add_argument("solution", metavar="SOLUTION",
                    help="HiGHS's solution file, or a 'name value' .sol file (SCIP, Gurobi, CPLEX)")
     s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES),
                    help="the objective the model was exported for (default mean-min-voi)")
-    s.add_argument("-o", "--output", required=True, metavar="RESULT")
+    s.add_argument("-o", "--output", required=True, metavar="RESULT", help="the result JSON to write")

@@ -247,6 +247,10 @@ _SENSOR_REQUIRED = ("position", "rho")
 def from_dict(d: Any, source: str = "") -> Instance:
     """Validate a decoded instance JSON object; raise InstanceError naming the first bad field."""
     ck = _Checker()
+    if isinstance(d, dict) and "sensors" not in d and ({"positions", "schedule", "plan"} & d.keys()):
+        what = "a result JSON" if "plan" in d else "a plan"
+        raise InstanceError(f"{source + ': ' if source else ''}{what}, not an instance (an instance has area, horizon, "
+                            "sensors and start)")
     top = {"name", "area", "step", "horizon", "start", "robots", "channel", "sensors", "blocked", "end", "max_moves"}
     d = ck.obj(d, "", top, {"area", "horizon", "sensors"})
     if d is None:

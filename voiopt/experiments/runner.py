@@ -361,7 +361,8 @@ def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--ou
         if old != settings:
             diff = sorted(k for k in set(settings) | set(old or {}) if (old or {}).get(k) != settings.get(k))
             raise OptionError(
-                f"{what}: {out_dir} holds a run with other settings ({', '.join(diff)} differ); "
+                f"{what}: {out_dir} holds a run with other settings ({', '.join(diff)} "
+                f"{'differs' if len(diff) == 1 else 'differ'}); "
                 "use another folder, or delete it to start again"
             )
         return

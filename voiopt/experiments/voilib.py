@@ -190,6 +190,8 @@ def score(result: dict[str, Any], source: str = "RESULT") -> dict[str, Any]:
         raise OptionError(f"{source}: must be a result object with instance, objective and plan")
     name, inst = find_instance(result)
     objective = result.get("objective")
+    if objective is None:
+        raise OptionError(f"{source}: objective: is required (one of {', '.join(OBJECTIVES)})")
     if objective not in OBJECTIVES:
         raise OptionError(f"{source}: objective: must be one of {', '.join(OBJECTIVES)}, got {str(objective)[:40]!r}")
     if "plan" not in result:
