@@ -185,3 +185,11 @@ def test_a_plan_or_result_given_as_an_instance_and_a_missing_command_get_one_lin
         main([])
     line = one_line_error(capsys.readouterr().err)
     assert e.value.code == 2 and line.startswith("voiopt: error: give a command: validate, evaluate,") and "solve" in line
+
+
+def test_an_option_a_method_does_not_take_is_named_both_ways(capsys):
+    code, _, err = run(capsys, "solve", CASE, "--gap", "0.1", "--quiet")  # dp, the default, has no MIP gap
+    assert code == 2 and "--gap (gap=): not an option of method 'dp' (it takes time_limit," in one_line_error(err)
+    with pytest.raises(voiopt.OptionError, match=r"^--time-limt \(time_limt=\): not an option of method 'greedy' "
+                                                 r"\(it takes time_limit, memory_limit\)$"):
+        voiopt.solve(voiopt.load(CASE), "greedy", time_limt=1)

@@ -129,7 +129,7 @@ def test_an_interrupted_solve_exits_non_zero_and_keeps_its_best_plan(tmp_path, s
     proc.send_signal(sig)
     _, stderr = proc.communicate(timeout=20)
     assert proc.returncode == code, stderr
-    assert "best plan so far is kept" in one_line(stderr)
+    assert f"the best plan so far is written to {out}" in one_line(stderr)
     result = voiopt.load_result(out)
     assert result.status == "interrupted" and result.value == voiopt.evaluate(voiopt.case_study(), result.plan)[result.objective]
 

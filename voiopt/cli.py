@@ -170,7 +170,10 @@ def cmd_solve(args) -> int:
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
     if result.status == "interrupted":  # the best plan is kept (and written), but the run did not finish
-        err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is kept", markup=False)
+        kept = (f"written to {args.output}" if args.output else "printed above (-o FILE keeps it)"
+                if args.json or not args.quiet else "not kept (-o FILE keeps it)")
+        err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is {kept}",
+                  markup=False)
         return 128 + (last_signal() or signal.SIGINT)
     return 0 if result.status != "error" else 1
 

@@ -60,5 +60,7 @@ def solve(instance: Instance, method: str = "dp", objective: str = DEFAULT, **op
     if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
         for key in options:
             if key not in params:
-                raise OptionError(f"--{key.replace('_', '-')}: not an option of method {method!r}")
+                takes = [k for k, p in params.items() if p.kind is p.KEYWORD_ONLY and k != "progress"]
+                raise OptionError(f"--{key.replace('_', '-')} ({key}=): not an option of method {method!r} "
+                                  f"(it takes {', '.join(takes)})")
     return fn(instance, objective, **options)
