@@ -69,3 +69,19 @@ def test_import_solution_command_and_errors(capsys, tmp_path):
     assert code == 2 and "not a solution of it" in one_line_error(err)
     code, _, err = run(capsys, "export", str(DOCK), str(model), "--covering-level", "1")
     assert code == 2 and "covering problems exist for min-voi and max-aoi" in one_line_error(err)
+
+
+@pytest.mark.parametrize("exported", list(voiopt.OBJECTIVES))
+def test_a_model_exported_for_another_objective_is_refused(tmp_path, exported):
+    """Each objective's model is told apart from the other three's (z_t<slot> columns for the
+    mean objectives, one z for the bottleneck ones; VoI maximised, AoI minimised)."""
+    inst = voiopt.case_study()
+    model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
+    export(inst, exported, model)
+    solve_model_file(model, solution)
+    for objective in voiopt.OBJECTIVES:
+        if objective == exported:
+            assert import_solution(inst, objective, model, solution).objective == objective
+        else:
+            with pytest.raises(voiopt.OptionError, match=rf"^--objective: '{objective}' does not match MODEL"):
+                import_solution(inst, objective, model, solution)

@@ -36,8 +36,8 @@ def path_names(st: Structure) -> dict[str, int]:
     return names
 
 
-def model_names(model: str | os.PathLike) -> set[str]:
-    """The column names of an MPS or LP file (read by HiGHS)."""
+def model_names(model: str | os.PathLike) -> tuple[set[str], bool]:
+    """The column names of an MPS or LP file (read by HiGHS), and whether it maximises."""
     import highspy
 
     h = new_highs()
@@ -46,7 +46,23 @@ def model_names(model: str | os.PathLike) -> set[str]:
         raise OptionError(f"MODEL: {model}: no such file")
     if h.readModel(str(model)) == highspy.HighsStatus.kError:
         raise OptionError(f"MODEL: HiGHS cannot read {str(model)!r} as MPS or LP")
-    return set(h.getLp().col_names_)
+    lp = h.getLp()
+    return set(lp.col_names_), lp.sense_ == highspy.ObjSense.kMaximize
+
+
+def _check_objective(objective: str, in_model: set[str], maximises: bool, horizon: int) -> None:
+    """The model was exported for ``objective``: a mean objective has one worth column per slot
+    (z_t1 .. z_tT), a bottleneck one a single z (a covering problem of the bisection has
+    neither), and VoI is maximised, AoI minimised."""
+    spec = objectives.get(objective)
+    per_slot = "z_t1" in in_model
+    if not (per_slot or "z" in in_model):
+        return  # a covering problem (--covering-level): any plan of it is a plan
+    if (per_slot != spec.per_slot and horizon > 1) or maximises != (spec.worth == "voi"):
+        kind = ("a mean objective's" if per_slot else "a bottleneck objective's") + (
+            " VoI model" if maximises else " AoI model")
+        raise OptionError(f"--objective: {objective!r} does not match MODEL, {kind}: give the --objective it was "
+                          "exported with")
 
 
 def read_values(solution: str | os.PathLike, names: dict[str, int]) -> dict[str, float]:
@@ -80,11 +96,12 @@ def import_solution(instance: Instance, objective: str, model: str | os.PathLike
                           f"{instance.n_robots} robots (solve the fleet with voiopt solve --method milp)")
     st = structure(instance, objectives.get(objective).worth)
     names = path_names(st)
-    in_model = model_names(model)
+    in_model, maximises = model_names(model)
     missing = sorted(set(names) - in_model)
     if missing:
         raise OptionError(f"MODEL: its columns are not those voiopt exports for {instance.name} (no {missing[0]}): "
                           "was it exported from another instance?")
+    _check_objective(objective, in_model, maximises, instance.horizon)
     values = read_values(solution, names)
     if not any(k.startswith("x_") for k in values):
         raise OptionError(f"SOLUTION: {solution}: no x_t<slot>_p<point> column of the model: not a solution of it")
