@@ -139,17 +139,59 @@ TRAP = {
 }
 
 
-def test_a_trapped_walker_falls_back_to_dps_legal_paths_and_never_claims_infeasible(monkeypatch):
-    monkeypatch.setattr(fleet_baselines, "MAX_TRIES", 2000)
-    r = voiopt.solve(from_dict(TRAP), "greedy")
-    assert r.status == "feasible" and "dp's legal joint paths" in r.solver["walker"]
-    assert r.value == pytest.approx(oracle.simulate(TRAP, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
-    assert any(u is not None for robot in r.plan.robots for u in robot.schedule)  # uploads along the paths
-    three = copy.deepcopy(TRAP)  # three robots: no exact fallback, and no false claim either
+def test_a_trapped_walker_falls_back_to_exact_legal_paths_and_never_claims_infeasible(monkeypatch):
+    three = copy.deepcopy(TRAP)  # three robots: the joint table of states that can still finish
     three["area"]["height"] = 2
     three["robots"].append({"start": [0, 2]})
-    r = voiopt.solve(from_dict(three), "greedy")
-    assert r.status in ("feasible", "error") and (r.status == "feasible" or "may still exist" in r.solver["note"])
+    for case, tries in ((TRAP, 2000), (three, 1)):  # two robots: dp's pass without uploads; three: given up at once
+        monkeypatch.setattr(fleet_baselines, "MAX_TRIES", tries)
+        r = voiopt.solve(from_dict(case), "greedy")
+        assert r.status == "feasible" and "exactly found legal joint paths" in r.solver["walker"]
+        assert r.value == pytest.approx(oracle.simulate(case, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
+        assert any(u is not None for robot in r.plan.robots for u in robot.schedule)  # uploads along the paths
+
+
+def test_exact_legal_paths_of_three_and_four_robots_agree_with_the_oracle():
+    """fleet_mdp.legal_paths on random tiny fleets with ends and budgets: a plan the oracle
+    finds legal, or a proof of none exactly where the oracle counts no legal plan."""
+    from voiopt.models import fleet_mdp
+
+    rng = np.random.default_rng(7)
+    seen = {"legal": 0, "none": 0}
+    for trial in range(80):
+        w, h, K = float(rng.choice([0.5, 0.75])), float(rng.choice([0.25, 0.5])), int(rng.choice([3, 4]))
+        pts = [[x * 0.25, y * 0.25] for x in range(int(w / 0.25) + 1) for y in range(int(h / 0.25) + 1)]
+        robots = []
+        for k in rng.choice(len(pts), size=K, replace=False):
+            r = {"start": pts[k]}
+            if rng.random() < 0.7:
+                r["end"] = pts[rng.integers(len(pts))]
+            if rng.random() < 0.4:
+                r["max_moves"] = int(rng.integers(0, 4))
+            robots.append(r)
+        d = {"name": f"t{trial}", "area": {"width": w, "height": h}, "step": 0.25, "horizon": int(rng.integers(2, 6)),
+             "robots": robots, "sensors": [{"position": [0.1, 0.1], "rho": 0.5}]}
+        try:
+            inst = from_dict(d)
+        except voiopt.VoioptError:
+            continue  # some robot alone cannot keep its end or budget
+        try:
+            paths = fleet_mdp.legal_paths(inst)
+        except fleet_mdp.NoJointPlan:
+            assert oracle.count_legal_plans(d) == 0, d
+            seen["none"] += 1
+            continue
+        lat = voiopt.lattice.build(inst.robot(0))
+        plan = {"robots": [{"positions": [lat.points[p].tolist() for p in paths[k]], "schedule": [None] * inst.horizon}
+                           for k in range(K)]}
+        oracle.simulate(d, plan)  # raises if any rule is broken
+        seen["legal"] += 1
+    assert seen["legal"] >= 20 and seen["none"] >= 1, seen
+    three = {**SWAP_ONLY, "robots": [*SWAP_ONLY["robots"], {"start": [2, 1]}]}  # two robots must still swap
+    for d in (SWAP_ONLY, three):
+        assert oracle.count_legal_plans(d) == 0
+        with pytest.raises(fleet_mdp.NoJointPlan):
+            fleet_mdp.legal_paths(from_dict(d))
 
 
 SWAP_ONLY = {"name": "swap-only", "area": {"width": 2, "height": 1}, "horizon": 10,

@@ -244,11 +244,13 @@ def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
                         break
 
 
-def _alive_table(instance: Instance, lats, budgets, counted, radix) -> np.ndarray:
+def _alive_table(instance: Instance, lats, budgets, counted, radix, moves=None):
     """alive[t, config, moves]: from the robots' points in slot t, with these moves made, a
-    joint way exists that keeps every rule of sections 9 and 10 until the last slot."""
+    joint way exists that keeps every rule of sections 9 and 10 until the last slot. Also
+    returns what a walk through it needs: the joint moves (``_joint_moves``), each moves-made
+    index's counts and the strides of the moves-made index."""
     K, T = instance.n_robots, instance.horizon
-    configs, nxt_cfg, moved = _joint_moves(lats[0].neighbors, K)
+    configs, nxt_cfg, moved = moves or _joint_moves(lats[0].neighbors, K)
     M = int(np.prod(radix))
     mv_idx = np.array(list(itertools.product(*[range(r) for r in radix])), dtype=np.int64).reshape(M, K)
     within = np.all(mv_idx <= np.where(counted, budgets, np.iinfo(np.int64).max), axis=1)
@@ -260,28 +262,80 @@ def _alive_table(instance: Instance, lats, budgets, counted, radix) -> np.ndarra
     alive[T - 1] = at_end[:, None] & within[None, :]
     strides = np.cumprod([1, *radix[::-1]])[:-1][::-1].astype(np.int64)
     _alive_backwards(alive, nxt_cfg, moved, np.asarray(counted), np.asarray(budgets), strides, mv_idx)
-    return alive
+    return alive, (configs, nxt_cfg, moved), mv_idx, strides
+
+
+def _budgets(instance: Instance, lats) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Each robot's move budget, whether it binds (counted in the state), and the radix of
+    its moves-made digit."""
+    budgets = np.array([lat.budget for lat in lats], dtype=np.int64)
+    counted = budgets < instance.horizon - 1
+    radix = [int(b) + 2 if c else 1 for b, c in zip(budgets, counted, strict=True)]
+    return budgets, counted, radix
+
+
+LEGAL_PATHS_CELLS = 2 * 10**7  # the most joint configs x slots (or x joint moves) legal_paths tabulates
+
+
+def legal_paths(instance: Instance) -> np.ndarray | None:
+    """(K, T) points of a legal joint plan of a fleet, found exactly: a walk forward from the
+    starts through the table of joint states that can still keep every rule to the last slot.
+    Raises NoJointPlan when the starts cannot (a proof that no legal plan exists); None where
+    the tables would pass LEGAL_PATHS_CELLS entries (then nothing is decided)."""
+    K, T = instance.n_robots, instance.horizon
+    n = lattice_mod.n_points(instance)
+    if max(alive_bytes(instance), float(T) * n**K, float(n) ** K * 5**K) > LEGAL_PATHS_CELLS:
+        return None
+    lats = [lattice_mod.build(instance.robot(k)) for k in range(K)]
+    budgets, counted, radix = _budgets(instance, lats)
+    alive, (configs, nxt_cfg, moved), mv_idx, strides = _alive_table(instance, lats, budgets, counted, radix)
+    c = 0
+    for lat in lats:
+        c = c * n + lat.start
+    m = 0
+    if not alive[0, c, m]:
+        raise NoJointPlan(f"robots: no joint plan keeps the rules between robots and every robot's end and "
+                          f"max_moves in {instance.name} (MODEL.md section 10)")
+    path = [c]
+    for t in range(T - 1):
+        for mv in range(nxt_cfg.shape[1]):  # the first joint move that stays alive
+            c2, m2 = nxt_cfg[c, mv], m
+            if c2 < 0:
+                continue
+            over = False
+            for k in range(K):
+                if counted[k] and moved[mv, c, k]:
+                    over |= mv_idx[m, k] + 1 > budgets[k]
+                    m2 += strides[k]
+            if not over and alive[t + 1, c2, m2]:
+                c, m = int(c2), int(m2)
+                break
+        path.append(c)
+    return configs[path].T.copy()
+
+
+class NoJointPlan(OptionError):
+    """The fleet has no legal joint plan: proven by the table of joint states that can still
+    meet every end and budget (the solvers report status ``infeasible``, as dp and milp do)."""
 
 
 def build(instance: Instance, reward: str = "voi", penalty: float = mdp_mod.IDLE_PENALTY,
           slot_in_state: bool = False, reward_units: str = "bit/s") -> FleetMDP:
     """The joint MDP of a fleet instance (K >= 2 robots)."""
-    K, T = instance.n_robots, instance.horizon
+    K = instance.n_robots
     one = mdp_mod.build(instance.robot(0), reward, penalty, slot_in_state, reward_units)
     lats = [lattice_mod.build(instance.robot(k)) for k in range(K)]
-    budgets = np.array([lat.budget for lat in lats], dtype=np.int64)
-    counted = budgets < T - 1
-    radix = [int(b) + 2 if c else 1 for b, c in zip(budgets, counted, strict=True)]
+    budgets, counted, radix = _budgets(instance, lats)
     masked = bool(counted.any() or any(lat.end >= 0 for lat in lats))
     if masked:
-        alive = _alive_table(instance, lats, budgets, counted, radix)
+        alive = _alive_table(instance, lats, budgets, counted, radix)[0]
     else:
         alive = np.ones((1, 1, 1), dtype=np.uint8)
     starts = np.array([lat.start for lat in lats], dtype=np.int64)
     fleet = FleetMDP(one, K, starts, budgets, counted, alive, np.array(radix, dtype=np.int64), masked,
                      *_packing(one, K, counted, budgets))
     if not fleet._alive(0, tuple(starts.tolist()), (0,) * K):
-        raise OptionError(f"robots: no joint plan keeps the rules between robots and every robot's end and "
+        raise NoJointPlan(f"robots: no joint plan keeps the rules between robots and every robot's end and "
                           f"max_moves in {instance.name} (MODEL.md section 10)")
     for a in (starts, budgets, counted, alive):
         a.setflags(write=False)

@@ -151,9 +151,9 @@ def _result(instance, method, objective, stop, solver, state0, begin, prefer, on
                                     solver={**solver, "note": str(proof)})
         if paths is None:
             return Result.from_plan(instance, method, objective, None, status="error", runtime_s=stop.elapsed(),
-                                    solver={**solver, "note": f"{e}; a legal plan may still exist (milp finds one)"})
+                                    solver={**solver, "note": f"{e}; a legal plan may still exist (milp may find one)"})
         idx, sched = paths, _uploads_along(paths, state0, begin, on_move)
-        solver["walker"] = f"{e}; uploads chosen along dp's legal joint paths instead"
+        solver["walker"] = f"{e}; uploads chosen along exactly found legal joint paths instead"
     if stop.requested:
         solver["stopped"] = f"{stop.describe()}; the robots then head for their ends without uploads"
     return Result.from_plan(instance, method, objective, Plan.from_indices(instance, idx, sched),
@@ -161,22 +161,28 @@ def _result(instance, method, objective, stop, solver, state0, begin, prefer, on
 
 
 def _legal_paths(instance: Instance, objective: str, stop: Stop) -> np.ndarray | None:
-    """(2, T) legal joint paths for two robots by fleet_dp's exact pass without uploads
-    (NoJointPlan, proved, if there are none); None where it does not apply (more robots, too
-    large)."""
+    """(K, T) legal joint paths, found exactly (NoJointPlan, proved, if there are none): for
+    two robots by fleet_dp's pass without uploads, else (or where dp declines) by a walk
+    through the joint table of states that can still finish (fleet_mdp.legal_paths, small
+    lattices only); None where neither applies."""
     from voiopt.errors import VoioptError
+    from voiopt.models import fleet_mdp
     from voiopt.solvers import fleet_dp
 
-    if instance.n_robots != 2:
-        return None
+    if instance.n_robots == 2:
+        try:
+            fleet_dp.check_fleet(instance, stop.memory_limit)
+            out = fleet_dp.legal_pass(fleet_dp.build_joint(instance, objective), stop)
+        except VoioptError:
+            out = None
+        if out is not None and out.plan is None:
+            raise NoJointPlan("no legal joint plan exists (dp's pass without uploads proved it)", True)
+        if out is not None:
+            return np.asarray(out.plan[0], dtype=np.int64)
     try:
-        fleet_dp.check_fleet(instance, stop.memory_limit)
-        out = fleet_dp.legal_pass(fleet_dp.build_joint(instance, objective), stop)
-    except VoioptError:
-        return None
-    if out.plan is None:
-        raise NoJointPlan("no legal joint plan exists (dp's pass without uploads proved it)", True)
-    return np.asarray(out.plan[0], dtype=np.int64)
+        return fleet_mdp.legal_paths(instance)
+    except fleet_mdp.NoJointPlan as e:
+        raise NoJointPlan(str(e), True) from None
 
 
 def _uploads_along(idx: np.ndarray, state, begin, on_move) -> np.ndarray:

@@ -118,7 +118,11 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         build, slots, train_fn, rollout_fn = mdp_mod.build, 1 << 15, train, rollout
     startup_s = warm_up(bool(instance.fleet))
     with watch(time_limit, memory_limit) as stop:
-        model = build(instance, reward, penalty, slot_in_state, reward_units)
+        try:
+            model = build(instance, reward, penalty, slot_in_state, reward_units)
+        except fleet_mdp.NoJointPlan as e:  # proven: no legal plan to learn
+            return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
+                                    solver={"note": str(e), "startup_s": startup_s})
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
         eps = np.array([1.0])
         eps0 = 1.0 / episodes
