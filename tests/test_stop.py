@@ -42,3 +42,17 @@ def test_a_second_signal_raises_at_once():
         time.sleep(0.01)
     assert e.value.exit_code == 130
     assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_in_a_loop_of_solves_one_signal_stops_one_solve_and_is_remembered():
+    """The library's rule (docs/reliability.md): the stopped solve returns, the next one starts
+    afresh, and last_signal() tells a script's loop that it was asked to stop."""
+    from voiopt.stop import last_signal
+
+    with watch() as first:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)
+        assert first.reason == INTERRUPTED
+    with watch() as second:
+        assert not second.requested and second.check() is None
+    assert last_signal() == signal.SIGTERM
