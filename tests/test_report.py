@@ -205,18 +205,25 @@ def test_randomised_methods_run_once_per_seed_through_the_cli(tmp_path, nets):
 
 def test_a_changed_instance_of_the_same_name_is_run_again_not_reused(tmp_path, nets):
     """A resume reuses a stored result only for the instance it was made from: an instance
-    file replaced by another of the same name (another rho, here) is solved again."""
+    file replaced by another of the same name (another rho, here) is solved again, by every
+    method, also one that a later resume adds back."""
     folder = tmp_path / "nets"
     write_set(generate_set(2, seed=21, n_sensors=2, horizon=6, width=2, height=2, rho=(0.2, 0.9)), folder)
     out = tmp_path / "report"
-    first = {r["instance"]: r for r in report.gap_report([folder], ["greedy"], "mean-min-voi", out)}
-    changed = voiopt.generate(2, 6, width=2, height=2, seed=21, rho=(0.95, 0.99), name=sorted(first)[0])
+    both = ["greedy", "shortest-path"]
+    first = {(r["instance"], r["method"]): r for r in report.gap_report([folder], both, "mean-min-voi", out)}
+    name, other = sorted({n for n, _ in first})
+    changed = voiopt.generate(2, 6, width=2, height=2, seed=21, rho=(0.95, 0.99), name=name)
     write_set([changed], folder)  # the same file name, other content
     notes: list[str] = []
-    again = {r["instance"]: r for r in report.gap_report([folder], ["greedy"], "mean-min-voi", out, notes=notes)}
-    fresh = voiopt.solve(changed, "greedy", "mean-min-voi")
-    assert again[changed.name]["value"] == pytest.approx(fresh.value, rel=1e-12) != first[changed.name]["value"]
-    other = sorted(first)[1]
-    assert again[other]["value"] == first[other]["value"]  # the unchanged instance is reused
-    assert any(changed.name in n and "changed" in n for n in notes)
-    assert changed.name in (out / "summary.md").read_text()
+    again = {(r["instance"], r["method"]): r for r in report.gap_report([folder], ["greedy"], "mean-min-voi", out,
+                                                                          notes=notes)}
+    assert again[name, "greedy"]["value"] == pytest.approx(voiopt.solve(changed, "greedy").value, rel=1e-12)
+    assert again[name, "greedy"]["value"] != first[name, "greedy"]["value"]
+    assert again[other, "greedy"]["value"] == first[other, "greedy"]["value"]  # the unchanged instance is reused
+    assert any(name in n and "changed" in n for n in notes)
+    assert name in (out / "summary.md").read_text()
+    last = {(r["instance"], r["method"]): r for r in report.gap_report([folder], both, "mean-min-voi", out)}
+    fresh = voiopt.solve(changed, "shortest-path")  # its old result went with the change, though not run then
+    assert last[name, "shortest-path"]["value"] == pytest.approx(fresh.value, rel=1e-12)
+    assert last[other, "shortest-path"]["value"] == first[other, "shortest-path"]["value"]

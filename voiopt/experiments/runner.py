@@ -218,7 +218,7 @@ def make_executor(workers: int, dask_scheduler: str | None):
             cluster.close()
 
 
-FINGERPRINTS = "instances.sha256"  # in each results folder: "<sha256>  <instance name>" lines
+FINGERPRINTS = "instances.sha256"  # in each results folder: "<sha256>  <file stem of the instance's name>" lines
 
 
 def fingerprint(instance: dict[str, Any]) -> str:
@@ -235,13 +235,23 @@ def _read_fingerprints(path: Path) -> dict[str, str]:
     return {line[66:]: line[:64] for line in lines if len(line) > 66 and line[64:66] == "  "}
 
 
+def _made_for(path: Path) -> str | None:
+    """The ``instance`` a stored result names (None: not a result)."""
+    try:
+        d = read_json(path)
+    except (VoioptError, OSError):
+        return None
+    return d.get("instance") if isinstance(d, dict) and "plan" in d else None
+
+
 def forget_changed(tasks: Sequence[Task], notes: list[str] | None = None) -> list[str]:
     """A stored result is done only for the instance it was made from. Each results folder's
-    ``instances.sha256`` records the fingerprint of every instance run into it; where an
-    instance of the same name has changed since, its stored results are deleted (the sweep
-    runs them again) and a line goes to ``notes``. Returns the changed names. The deletions
-    come before the new fingerprints are written, so a crash between the two cannot leave a
-    stale result that counts as done."""
+    ``instances.sha256`` records the fingerprint of every instance run into it (by the file
+    stem of its name, ``safe_name``); where an instance of the same name has changed since,
+    every result in the folder made for it is deleted, of any method or seed (the sweep runs
+    what it needs again), and a line goes to ``notes``. Returns the changed names. The
+    deletions come before the new fingerprints are written, so a crash between the two cannot
+    leave a stale result that counts as done."""
     folders: dict[Path, list[Task]] = {}
     for t in tasks:
         folders.setdefault(Path(t.out_path).parent, []).append(t)
@@ -249,16 +259,18 @@ def forget_changed(tasks: Sequence[Task], notes: list[str] | None = None) -> lis
     for folder, mine in folders.items():
         path = folder / FINGERPRINTS
         old = _read_fingerprints(path)
-        new = {t.instance_name: fingerprint(t.instance) for t in mine}
-        changed = sorted(name for name, f in new.items() if name in old and old[name] != f)
-        for t in mine:
-            if t.instance_name in changed:
-                Path(t.out_path).unlink(missing_ok=True)
-        if changed and notes is not None:
-            notes.append(f"ran again: {', '.join(changed)} (changed since their results in {folder} were stored)")
-        if any(old.get(name) != f for name, f in new.items()):
+        new = {safe_name(t.instance_name): fingerprint(t.instance) for t in mine}
+        names = {safe_name(t.instance_name): t.instance_name for t in mine}
+        changed = sorted(names[stem] for stem, f in new.items() if stem in old and old[stem] != f)
+        if changed:
+            for p in folder.glob("*.json"):
+                if _made_for(p) in changed:
+                    p.unlink(missing_ok=True)
+            if notes is not None:
+                notes.append(f"ran again: {', '.join(changed)} (changed since their results in {folder} were stored)")
+        if any(old.get(stem) != f for stem, f in new.items()):
             with atomic_write(path) as f:
-                f.writelines(f"{h}  {name}\n" for name, h in sorted({**old, **new}.items()))
+                f.writelines(f"{h}  {stem}\n" for stem, h in sorted({**old, **new}.items()))
         changed_all += changed
     return changed_all
 
