@@ -193,3 +193,16 @@ def test_an_option_a_method_does_not_take_is_named_both_ways(capsys):
     with pytest.raises(voiopt.OptionError, match=r"^--time-limt \(time_limt=\): not an option of method 'greedy' "
                                                  r"\(it takes time_limit, memory_limit\)$"):
         voiopt.solve(voiopt.load(CASE), "greedy", time_limt=1)
+
+
+def test_the_default_method_is_dp_and_milp_for_three_robots(capsys, tmp_path):
+    three = tmp_path / "three.json"
+    code, text, _ = run(capsys, "generate", "--sensors", "2", "--horizon", "5", "--robots", "3", "--seed", "3")
+    assert code == 0
+    three.write_text(text)
+    for path, method in ((CASE, "dp"), (three, "milp")):
+        out = tmp_path / f"{method}.json"
+        assert run(capsys, "solve", str(path), "--quiet", "-o", str(out))[0] == 0
+        r = voiopt.load_result(out)
+        assert r.method == method and r.status == "optimal"
+    assert voiopt.solve(voiopt.load(three)).method == "milp" and voiopt.solve(voiopt.case_study()).method == "dp"

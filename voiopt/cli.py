@@ -165,13 +165,13 @@ def cmd_solve(args) -> int:
         print(json.dumps(result.to_dict(), indent=2))
     elif not args.quiet:
         out.print(result.summary(), markup=False)
-        out.print(_metrics_table({args.method: result.metrics}) if result.metrics else
+        out.print(_metrics_table({result.method: result.metrics}) if result.metrics else
                   f"no plan{': ' + result.solver['note'] if result.solver.get('note') else ''}", markup=False)
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
     if result.status == "interrupted":  # the best plan is kept (and written), but the run did not finish
-        kept = (f"written to {args.output}" if args.output else "printed above (-o FILE keeps it)"
-                if args.json or not args.quiet else "not kept (-o FILE keeps it)")
+        kept = (f"written to {args.output}" if args.output else "printed above (--json)" if args.json
+                else "not kept (-o FILE keeps it)")
         err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is {kept}",
                   markup=False)
         return 128 + (last_signal() or signal.SIGINT)
@@ -316,7 +316,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("solve", help="solve an instance and write the result JSON")
     s.add_argument("instance", metavar="INSTANCE", help="an instance JSON file")
-    s.add_argument("--method", default="dp", help=f"one of {', '.join(voiopt.METHODS)} (default dp, the fastest exact "
+    s.add_argument("--method", default=None, help=f"one of {', '.join(voiopt.METHODS)} (default dp, the fastest exact "
                    "method; milp for three robots or more)")
     s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="seconds (default: none)")

@@ -50,9 +50,19 @@ def solver_function(method: str):
     return getattr(importlib.import_module(module), function)
 
 
-def solve(instance: Instance, method: str = "dp", objective: str = DEFAULT, **options: Any) -> Result:
-    """Solve ``instance`` with ``method`` (by default dp, the fastest exact method) for
-    ``objective``; every value in the Result is simulated."""
+DP_MAX_ROBOTS = 2  # dp plans jointly for at most this many robots (fleet_dp.MAX_ROBOTS)
+
+
+def default_method(instance: Instance) -> str:
+    """The fastest exact method that takes the instance: dp, or milp for more robots than dp
+    plans for jointly."""
+    return "dp" if instance.n_robots <= DP_MAX_ROBOTS else "milp"
+
+
+def solve(instance: Instance, method: str | None = None, objective: str = DEFAULT, **options: Any) -> Result:
+    """Solve ``instance`` with ``method`` (by default ``default_method``: dp, or milp for three
+    robots or more) for ``objective``; every value in the Result is simulated."""
+    method = default_method(instance) if method is None else method
     check_objective(objective)
     fn = solver_function(method)
     check_robots(instance, method)

@@ -21,12 +21,12 @@ from voiopt.objectives import check_objective
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
-from voiopt.solvers import _numba_start
+from voiopt.solvers import DP_MAX_ROBOTS, _numba_start
 from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, table_bytes, watched
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, require_memory
 from voiopt.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, watch
 
-MAX_ROBOTS = 2  # the product state of three robots on any useful grid is out of reach
+MAX_ROBOTS = DP_MAX_ROBOTS  # the product state of three robots on any useful grid is out of reach
 FLEET_BEAM = 2  # labels per point pair in the incumbent's beam pass: wider costs more than it saves (docs/dp.md)
 LABEL_BYTES = 32  # a label kept for the parent pointers: parent 8, two uploads 4, two points 8, moves left 4, slack
 CANDIDATE_BYTES = 200  # a child in the kernel's buffers, besides its ranks (twice): key, values, record, output
