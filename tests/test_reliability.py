@@ -267,3 +267,16 @@ def test_an_unknown_plot_suffix_is_rejected(tmp_path):
     done = run("plot", str(tmp_path / "r.json"), "-o", str(tmp_path / "x.jpg"))
     assert done.returncode == 2 and ".png, .pdf or .svg" in one_line(done.stderr)
     assert not (tmp_path / "x.jpg").exists()
+
+
+@pytest.mark.parametrize("args, kept", [([], "not kept (-o FILE keeps it)"), (["--json"], "printed above (--json)")])
+def test_an_interrupted_solve_says_where_its_best_plan_went(args, kept):
+    proc = voiopt_cmd("solve", CASE, "--method", "qlearning", "--episodes", "1e9", *args)
+    wait_until_watching(proc)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=20)
+    assert proc.returncode == 130, stderr
+    assert stderr.splitlines()[-1].endswith(f"the best plan so far is {kept}")
+    if args:
+        assert json.loads(stdout)["status"] == "interrupted"

@@ -274,7 +274,7 @@ def _budgets(instance: Instance, lats) -> tuple[np.ndarray, np.ndarray, list[int
     return budgets, counted, radix
 
 
-LEGAL_PATHS_CELLS = 2 * 10**7  # the most joint configs x slots (or x joint moves) legal_paths tabulates
+LEGAL_PATHS_CELLS = 5 * 10**6  # the most joint configs x slots (or x joint moves) legal_paths tabulates (about 1 s)
 
 
 def legal_paths(instance: Instance) -> np.ndarray | None:
