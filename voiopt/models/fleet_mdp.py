@@ -214,10 +214,31 @@ def _joint_moves(neighbors: np.ndarray, K: int):
     return configs, nxt_cfg, moved
 
 
+@nb.njit(cache=True, inline="always")
+def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx):
+    """The first joint move from joint point ``c`` with moves made ``m`` in slot t that leads
+    to a joint point and moves made alive in slot t + 1, no counted robot passing its budget:
+    (next joint point, next moves made), or (-1, -1) if none does."""
+    K = counted.shape[0]
+    for mv in range(nxt_cfg.shape[1]):
+        c2 = nxt_cfg[c, mv]
+        if c2 < 0:
+            continue
+        m2, good = m, True
+        for k in range(K):
+            if counted[k] and moved[mv, c, k]:
+                if mv_idx[m, k] + 1 > budgets[k]:
+                    good = False
+                m2 += strides[k]
+        if good and alive[t + 1, c2, m2]:
+            return c2, m2
+    return -1, -1
+
+
 @nb.njit(cache=True)
 def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
     """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: some joint move leads to a joint point
-    and moves made that are alive in the next slot, no counted robot passing its budget."""
+    and moves made that are alive in the next slot (``_next_alive``)."""
     T, C, M = alive.shape
     K = counted.shape[0]
     for t in range(T - 2, -1, -1):
@@ -227,30 +248,17 @@ def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
                 for k in range(K):
                     if counted[k] and mv_idx[m, k] > budgets[k]:
                         within = False
-                if not within:
-                    continue
-                for mv in range(nxt_cfg.shape[1]):
-                    c2 = nxt_cfg[c, mv]
-                    if c2 < 0:
-                        continue
-                    m2, good = m, True
-                    for k in range(K):
-                        if counted[k] and moved[mv, c, k]:
-                            if mv_idx[m, k] + 1 > budgets[k]:
-                                good = False
-                            m2 += strides[k]
-                    if good and alive[t + 1, c2, m2]:
-                        alive[t, c, m] = 1
-                        break
+                if within and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
+                    alive[t, c, m] = 1
 
 
-def _alive_table(instance: Instance, lats, budgets, counted, radix, moves=None):
+def _alive_table(instance: Instance, lats, budgets, counted, radix):
     """alive[t, config, moves]: from the robots' points in slot t, with these moves made, a
     joint way exists that keeps every rule of sections 9 and 10 until the last slot. Also
     returns what a walk through it needs: the joint moves (``_joint_moves``), each moves-made
     index's counts and the strides of the moves-made index."""
     K, T = instance.n_robots, instance.horizon
-    configs, nxt_cfg, moved = moves or _joint_moves(lats[0].neighbors, K)
+    configs, nxt_cfg, moved = _joint_moves(lats[0].neighbors, K)
     M = int(np.prod(radix))
     mv_idx = np.array(list(itertools.product(*[range(r) for r in radix])), dtype=np.int64).reshape(M, K)
     within = np.all(mv_idx <= np.where(counted, budgets, np.iinfo(np.int64).max), axis=1)
@@ -294,24 +302,17 @@ def legal_paths(instance: Instance) -> np.ndarray | None:
         c = c * n + lat.start
     m = 0
     if not alive[0, c, m]:
-        raise NoJointPlan(f"robots: no joint plan keeps the rules between robots and every robot's end and "
-                          f"max_moves in {instance.name} (MODEL.md section 10)")
+        raise NoJointPlan(_no_joint_plan(instance))
     path = [c]
-    for t in range(T - 1):
-        for mv in range(nxt_cfg.shape[1]):  # the first joint move that stays alive
-            c2, m2 = nxt_cfg[c, mv], m
-            if c2 < 0:
-                continue
-            over = False
-            for k in range(K):
-                if counted[k] and moved[mv, c, k]:
-                    over |= mv_idx[m, k] + 1 > budgets[k]
-                    m2 += strides[k]
-            if not over and alive[t + 1, c2, m2]:
-                c, m = int(c2), int(m2)
-                break
+    for t in range(T - 1):  # alive in slot t: some move stays alive
+        c, m = _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)
         path.append(c)
     return configs[path].T.copy()
+
+
+def _no_joint_plan(instance: Instance) -> str:
+    return (f"robots: no joint plan keeps the rules between robots and every robot's end and max_moves in "
+            f"{instance.name} (MODEL.md section 10)")
 
 
 class NoJointPlan(OptionError):
@@ -335,8 +336,7 @@ def build(instance: Instance, reward: str = "voi", penalty: float = mdp_mod.IDLE
     fleet = FleetMDP(one, K, starts, budgets, counted, alive, np.array(radix, dtype=np.int64), masked,
                      *_packing(one, K, counted, budgets))
     if not fleet._alive(0, tuple(starts.tolist()), (0,) * K):
-        raise NoJointPlan(f"robots: no joint plan keeps the rules between robots and every robot's end and "
-                          f"max_moves in {instance.name} (MODEL.md section 10)")
+        raise NoJointPlan(_no_joint_plan(instance))
     for a in (starts, budgets, counted, alive):
         a.setflags(write=False)
     return fleet
