@@ -135,6 +135,12 @@ class FleetPlan:
         return {"robots": [p.to_dict() for p in self.robots]}
 
 
+def made_for(d: Any) -> str | None:
+    """The instance a decoded result JSON names (None: not a result, or no name)."""
+    name = d.get("instance") if isinstance(d, dict) and "plan" in d else None
+    return name if isinstance(name, str) else None
+
+
 def load_plan(path: str | os.PathLike, instance_name: str | None = None) -> Plan | FleetPlan:
     """The plan of a plan file or a result JSON; every error names the file. With
     ``instance_name``, a result made for another instance (by its ``instance`` field) is
@@ -142,9 +148,9 @@ def load_plan(path: str | os.PathLike, instance_name: str | None = None) -> Plan
     d = read_json(path, error=PlanError)
     if isinstance(d, dict) and "sensors" in d:
         raise PlanError(f"{path}: an instance, not a plan ({{positions, schedule}}) or a result JSON")
-    made_for = d.get("instance") if isinstance(d, dict) and "plan" in d else None
-    if instance_name is not None and isinstance(made_for, str) and made_for != instance_name:
-        raise PlanError(f"{path}: a result for instance {show(made_for)}, not for {show(instance_name)}")
+    other = made_for(d)
+    if instance_name is not None and other is not None and other != instance_name:
+        raise PlanError(f"{path}: a result for instance {show(other)}, not for {show(instance_name)}")
     try:
         return Plan.from_dict(d)
     except PlanError as e:

@@ -26,6 +26,7 @@ from voiopt._files import atomic_write, read_json, safe_name, write_json_atomic
 from voiopt.errors import MissingExtraError, OptionError, VoioptError
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
+from voiopt.plan import made_for
 from voiopt.progress import progress_bar
 from voiopt.result import Result, load_result
 from voiopt.solvers import METHODS, RANDOMISED, check_robots, solver_function
@@ -238,10 +239,9 @@ def _read_fingerprints(path: Path) -> dict[str, str]:
 def _made_for(path: Path) -> str | None:
     """The ``instance`` a stored result names (None: not a result)."""
     try:
-        d = read_json(path)
+        return made_for(read_json(path))
     except (VoioptError, OSError):
         return None
-    return d.get("instance") if isinstance(d, dict) and "plan" in d else None
 
 
 def forget_changed(tasks: Sequence[Task], notes: list[str] | None = None) -> list[str]:
