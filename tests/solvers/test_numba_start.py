@@ -43,3 +43,9 @@ def test_the_library_leaves_numba_blas_check_alone():
     lib = ("import voiopt\nfrom voiopt.solvers import qlearning\n"
            f"qlearning.solve(voiopt.load({CASE!r}), episodes=10)\n")
     assert _fresh(lib) == "True"
+
+
+def test_the_command_line_imports_numba_only_for_commands_that_use_it():
+    code = "import sys\nimport voiopt.cli\nprint('numba' in sys.modules)\n"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    assert out.stdout.split()[-1] == "False"  # validate, generate, evaluate... start without it

@@ -15,24 +15,23 @@ from __future__ import annotations
 
 import sys
 
-import numba as nb
-
-QUICK = False  # set by the command line (voiopt.cli.run)
+QUICK = False  # set by the command line (voiopt.cli.run), which imports this module but not numba
 
 
-@nb.njit(cache=True)
-def _first(x: int) -> int:
+def _first(x: int) -> int:  # compiled by start(): numba is imported only by commands that use it
     return x + 1
 
 
 def start() -> None:
     """Initialise numba (once per process): without its BLAS check if QUICK and scipy.linalg
     has not been imported yet, else as numba does by itself."""
+    import numba as nb
+
     hide = QUICK and "numba.np.arraymath" not in sys.modules and "scipy.linalg" not in sys.modules
     if hide:
         sys.modules["scipy.linalg"] = None  # an ImportError for it and its submodules
     try:
-        _first(1)
+        nb.njit(cache=True)(_first)(1)
     finally:
         if hide and "scipy.linalg" in sys.modules and sys.modules["scipy.linalg"] is None:
             del sys.modules["scipy.linalg"]
