@@ -116,6 +116,20 @@ def fleet_instances(count: int = 12, seed: int = 4242) -> list[voiopt.Instance]:
     return out
 
 
+def undecided(d: dict) -> voiopt.Instance:
+    """The instance of ``d`` as the loader admits a fleet too large for its check that some
+    joint plan exists (voiopt.joint.possible answers None): the solvers must then prove that
+    none exists themselves, and say ``infeasible``."""
+    from voiopt import joint
+
+    possible = joint.possible
+    joint.possible = lambda *args: None
+    try:
+        return voiopt.instance.from_dict(d)
+    finally:
+        joint.possible = possible
+
+
 _FLEET_OPTIMA: dict[str, dict[str, float]] = {}
 
 

@@ -166,6 +166,28 @@ def test_fleet_instance_errors_name_the_robot(change, message):
         oracle.check_instance(d)
 
 
+def test_a_fleet_that_cannot_finish_together_is_rejected_in_one_line(tmp_path, capsys):
+    """MODEL.md section 9: an instance that admits no legal plan is rejected by validation. In
+    this corridor each robot alone can reach the other's start, but they cannot pass each other
+    (the oracle finds no legal plan); with a second lane they can."""
+    from voiopt.cli import main
+
+    wide = {"area": {"width": 2, "height": 1}, "step": 1, "horizon": 6,
+            "robots": [{"start": [0, 0], "end": [2, 0]}, {"start": [2, 0], "end": [0, 0]}],
+            "sensors": [{"position": [1, 0.5], "rho": 0.5}]}
+    narrow = {**wide, "blocked": [[0, 1], [1, 1], [2, 1]]}
+    assert next(oracle.legal_plans(wide), None) is not None and next(oracle.legal_plans(narrow), None) is None
+    assert from_dict(wide).n_robots == 2
+    with pytest.raises(InstanceError, match=r"^robots: no legal joint plan: each robot can reach its end alone"):
+        from_dict(narrow)
+    for d, code in ((wide, 0), (narrow, 2)):
+        path = tmp_path / "fleet.json"
+        path.write_text(json.dumps(d))
+        assert main(["validate", str(path)]) == code
+        err = capsys.readouterr().err.strip()
+        assert (err == "") if code == 0 else (err.count("\n") == 0 and "robots[0]: [0, 0] to [2, 0]" in err), err
+
+
 def test_single_robot_methods_refuse_a_fleet_in_one_line():
     inst = CASES[0]
     with pytest.raises(voiopt.OptionError, match="plans for one robot, but the instance has 2 robots"):

@@ -11,6 +11,26 @@ from __future__ import annotations
 import numpy as np
 
 UNREACHABLE = 1 << 40  # the distance of a point that cannot be reached (sums of a few stay exact)
+MOVES = np.array([(0, 0), (0, 1), (0, -1), (1, 0), (-1, 0)], dtype=np.int64)  # stay, N, S, E, W as (dk, dl)
+
+
+def neighbors(nx: int, ny: int, blocked: np.ndarray) -> np.ndarray:
+    """(nx * ny, 5) int64: the point after each of MOVES from each point, -1 where the move
+    would leave the area or stand on a blocked point (and every move of a blocked point)."""
+    out = np.empty((nx * ny, len(MOVES)), dtype=np.int64)
+    nb = out.reshape(nx, ny, len(MOVES))
+    for j, (dk, dl) in enumerate(MOVES.tolist()):  # (k, l) -> (k + dk) * ny + (l + dl)
+        np.add(np.arange(nx, dtype=np.int64)[:, None] * ny + dk * ny + dl, np.arange(ny, dtype=np.int64)[None, :],
+               out=nb[:, :, j])
+        if dk:
+            nb[nx - 1 if dk > 0 else 0, :, j] = -1
+        if dl:
+            nb[:, ny - 1 if dl > 0 else 0, j] = -1
+    blocked = np.asarray(blocked, dtype=bool).reshape(-1)
+    if blocked.any():  # a move into a blocked point is illegal like one off the area
+        out[blocked] = -1
+        out[blocked[np.maximum(out, 0)] & (out >= 0)] = -1
+    return out
 
 
 def free_graph(nx: int, ny: int, blocked: np.ndarray):

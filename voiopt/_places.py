@@ -180,3 +180,24 @@ def check_route(ck: Checker, width, height, step, horizon, start, end, blocked, 
     elif moves > allowed:
         ck.fail(_join(path, "end"), f"{_xy(end)} is not reachable within {allowed} moves ({why}): it is {moves} moves "
                        f"from start {_xy(start)}{around}")
+
+
+def check_together(ck: Checker, width, height, step, horizon, blocked, robots) -> None:
+    """Several robots that could each keep their rules alone can still have no joint plan
+    (MODEL.md sections 9 and 10): two robots in a corridor cannot pass each other. Decided
+    exactly by the table of joint points that can still finish (joint.possible) on fleets
+    small enough for it; larger ones are left to the solvers, which say ``infeasible``."""
+    if len(robots) < 2 or all(r[1] is None for _, r in robots):
+        return  # without an end every robot may stay at its own start
+    from voiopt import joint  # numba: only for a fleet with an end
+
+    nx, ny = lattice_shape(width, height, step)
+    blocked = tuple(sorted(point_index(b, step, ny) for b in blocked))
+    starts = tuple(point_index(r[0], step, ny) for _, r in robots)
+    ends = tuple(-1 if r[1] is None else point_index(r[1], step, ny) for _, r in robots)
+    if joint.possible(nx, ny, blocked, starts, ends, tuple(r[2] for _, r in robots), horizon) is False:
+        rules = ", ".join(f"{path}: {_xy(r[0])} to {_xy(r[1])}" for path, r in robots if r[1] is not None)
+        budgets = " and max_moves" if any(r[2] is not None for _, r in robots) else ""
+        ck.fail("robots", f"no legal joint plan: each robot can reach its end alone, but in {horizon} slots the robots "
+                          f"cannot all keep their ends{budgets} without two of them sharing or swapping points "
+                          f"({rules}; MODEL.md section 10)")

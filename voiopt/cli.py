@@ -13,7 +13,7 @@ from rich.console import Console
 from rich.table import Table
 
 import voiopt
-from voiopt import fields, lattice
+from voiopt import _numba_start, fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file
 from voiopt.cli_bench import add_commands as add_bench_commands
@@ -23,7 +23,6 @@ from voiopt.generate import PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
 from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
-from voiopt.solvers import _numba_start
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 from voiopt.stop import last_signal
 
@@ -407,7 +406,7 @@ def run() -> None:
     and again (about 0.2 s of start-up), and one solve leaves next to no cyclic garbage (100 to
     2400 objects, measured on the case study). Sweeps keep the collector. Whatever is alive at
     exit is frozen rather than walked once more on the way out (about 0.4 s). numba starts
-    without its BLAS check (voiopt.solvers._numba_start, 0.2 to 0.3 s)."""
+    without its BLAS check (voiopt._numba_start, 0.2 to 0.3 s)."""
     _numba_start.QUICK = True  # numba starts without its BLAS check: voiopt's kernels need none
     if sys.argv[1:2] == ["solve"]:
         gc.disable()

@@ -44,6 +44,7 @@ from voiopt._places import (  # noqa: F401  (the lattice's geometry and caps are
     check_blocked,
     check_robots,
     check_route,
+    check_together,
     lattice_point,
     lattice_shape,
     on_lattice,
@@ -339,6 +340,8 @@ def from_dict(d: Any, source: str = "") -> Instance:
         for path, (start, end, max_moves) in robots:
             if blocked or end is not None:
                 check_route(ck, width, height, step, horizon, start, end, blocked, max_moves, path)
+    if not ck.errors:
+        check_together(ck, width, height, step, horizon, blocked, robots)
     if ck.errors:
         _raise(ck, source)
     fleet = tuple(Robot(*r) for _, r in robots)

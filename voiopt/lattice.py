@@ -16,7 +16,7 @@ from voiopt import _grid
 from voiopt.instance import LATTICE_TOL, Instance, lattice_shape, point_index
 
 UNREACHABLE = _grid.UNREACHABLE  # steps_from's distance where there is no way
-MOVES = np.array([(0, 0), (0, 1), (0, -1), (1, 0), (-1, 0)], dtype=np.int64)
+MOVES = _grid.MOVES
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,16 +168,6 @@ def _build(instance: Instance) -> Lattice:
     grid[:, :, 0] = np.arange(nx, dtype=np.int64)[:, None]
     grid[:, :, 1] = np.arange(ny, dtype=np.int64)[None, :]
     points = coords * step
-    # neighbour of (k, l) after move (dk, dl): (k + dk) * ny + (l + dl), -1 off the area
-    neighbors = np.empty((n, len(MOVES)), dtype=np.int64)
-    nb = neighbors.reshape(nx, ny, len(MOVES))
-    for j, (dk, dl) in enumerate(MOVES.tolist()):
-        np.add(np.arange(nx, dtype=np.int64)[:, None] * ny + dk * ny + dl, np.arange(ny, dtype=np.int64)[None, :],
-               out=nb[:, :, j])
-        if dk:
-            nb[nx - 1 if dk > 0 else 0, :, j] = -1
-        if dl:
-            nb[:, ny - 1 if dl > 0 else 0, j] = -1
     start = point_index(instance.start, step, ny)
     pos = np.array([s.position for s in instance.sensors], dtype=float).reshape(-1, 2)
     distance = np.empty((len(pos), n))
@@ -192,9 +182,7 @@ def _build(instance: Instance) -> Lattice:
     blocked = np.zeros(n, dtype=bool)
     for b in instance.blocked:
         blocked[point_index(b, step, ny)] = True
-    if blocked.any():  # a move into a blocked point is illegal like one off the area
-        neighbors[blocked] = -1
-        neighbors[blocked[np.maximum(neighbors, 0)] & (neighbors >= 0)] = -1
+    neighbors = _grid.neighbors(nx, ny, blocked)
     end = -1
     to_end = np.broadcast_to(np.int64(0), (n,))  # no end: zero moves left to make, and no memory
     if instance.end is not None:

@@ -16,7 +16,7 @@ import threading
 import time
 
 import pytest
-from conftest import ROOT, fleet_instances
+from conftest import ROOT, fleet_instances, undecided
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -264,11 +264,11 @@ def test_one_robot_options_are_refused_for_a_fleet():
 
 
 def test_no_legal_joint_plan_is_infeasible():
-    """Ends that only a swap could reach: the loader admits the instance (each robot alone can
-    finish), the pass without uploads proves that no joint plan exists."""
+    """Ends that only a swap could reach, on a fleet the loader's check of joint plans leaves
+    undecided (each robot alone can finish): the pass without uploads proves that none exists."""
     d = {"area": {"width": 1, "height": 0.0001}, "step": 1, "horizon": 3, "channel": {"d_th": 0.4},
          "robots": [{"start": [0, 0], "end": [1, 0]}, {"start": [1, 0], "end": [0, 0]}],
          "sensors": [{"position": [1, 0], "rho": 0.5}]}
     assert oracle.count_legal_plans(d) == 0
-    r = voiopt.solve(from_dict(d), method="dp", objective="min-voi")
+    r = voiopt.solve(undecided(d), method="dp", objective="min-voi")
     assert r.status == "infeasible" and r.plan is None

@@ -10,7 +10,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import fleet_instances
+from conftest import fleet_instances, undecided
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -140,12 +140,13 @@ def test_a_table_that_outgrows_the_limit_stops_with_the_greedy_plan():
 
 def test_robots_that_can_only_pass_by_swapping_are_infeasible():
     """A one-lane corridor with each robot's end at the other's start: each robot alone can
-    finish, together they cannot (the loader accepts it; the joint mask finds no way)."""
+    finish, together they cannot (past the loader's check of joint plans, the joint mask finds
+    no way)."""
     d = voiopt.generate(1, 6, width=2.0, height=1.0, seed=2).to_dict()
     del d["start"]
     d["blocked"] = [[0, 1], [1, 1], [2, 1]]
     d["robots"] = [{"start": [0, 0], "end": [2, 0]}, {"start": [2, 0], "end": [0, 0]}]
     for method in ("qlearning", "aoi-qlearning"):  # infeasible, as dp, milp, greedy and shortest-path say
-        r = voiopt.solve(from_dict(d), method=method, episodes=10)
+        r = voiopt.solve(undecided(d), method=method, episodes=10)
         assert r.status == "infeasible" and r.plan is None and r.value is None
         assert "no joint plan keeps the rules between robots" in r.solver["note"]

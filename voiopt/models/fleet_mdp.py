@@ -19,9 +19,9 @@ import itertools
 from dataclasses import dataclass
 from functools import cached_property
 
-import numba as nb
 import numpy as np
 
+from voiopt import joint
 from voiopt import lattice as lattice_mod
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
@@ -183,131 +183,40 @@ def alive_bytes(instance: Instance) -> float:
     """The bytes of the joint mask ``alive`` (0 when no robot has an end or a binding budget)."""
     T = instance.horizon
     n = lattice_mod.n_points(instance)
-    radix = [(min(r.max_moves, T - 1) + 2) if r.max_moves is not None and r.max_moves < T - 1 else 1
-             for r in instance.robots]
+    radix = joint.budgets([r.max_moves for r in instance.robots], T)[2]
     if not any(r.end is not None for r in instance.robots) and all(x == 1 for x in radix):
         return 0.0
     return float(T) * float(n) ** instance.n_robots * float(np.prod(radix))
 
 
-def _joint_moves(neighbors: np.ndarray, K: int):
-    """(next config, moved) of every joint move (5**K) from every config (n**K); next config -1
-    where a move leaves the area or hits a blocked point, or two robots share or swap points."""
-    n = neighbors.shape[0]
-    configs = np.array(list(itertools.product(range(n), repeat=K)), dtype=np.int64).reshape(-1, K)
-    combos = list(itertools.product(range(5), repeat=K))
-    nxt_cfg = np.full((len(configs), len(combos)), -1, dtype=np.int64)
-    moved = np.zeros((len(combos), len(configs), K), dtype=bool)
-    for c, mv in enumerate(combos):
-        nxt = np.stack([neighbors[configs[:, k], mv[k]] for k in range(K)], axis=1)
-        ok = (nxt >= 0).all(axis=1)
-        for k in range(1, K):
-            for j in range(k):
-                ok &= nxt[:, k] != nxt[:, j]
-                ok &= ~((nxt[:, k] == configs[:, j]) & (nxt[:, j] == configs[:, k]))
-                ok &= configs[:, k] != configs[:, j]
-        idx = np.zeros(len(configs), dtype=np.int64)
-        for k in range(K):
-            idx = idx * n + np.maximum(nxt[:, k], 0)
-        nxt_cfg[ok, c] = idx[ok]
-        moved[c] = nxt != configs
-    return configs, nxt_cfg, moved
-
-
-@nb.njit(cache=True, inline="always")
-def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx):
-    """The first joint move from joint point ``c`` with moves made ``m`` in slot t that leads
-    to a joint point and moves made alive in slot t + 1, no counted robot passing its budget:
-    (next joint point, next moves made), or (-1, -1) if none does."""
-    K = counted.shape[0]
-    for mv in range(nxt_cfg.shape[1]):
-        c2 = nxt_cfg[c, mv]
-        if c2 < 0:
-            continue
-        m2, good = m, True
-        for k in range(K):
-            if counted[k] and moved[mv, c, k]:
-                if mv_idx[m, k] + 1 > budgets[k]:
-                    good = False
-                m2 += strides[k]
-        if good and alive[t + 1, c2, m2]:
-            return c2, m2
-    return -1, -1
-
-
-@nb.njit(cache=True)
-def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
-    """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: some joint move leads to a joint point
-    and moves made that are alive in the next slot (``_next_alive``)."""
-    T, C, M = alive.shape
-    K = counted.shape[0]
-    for t in range(T - 2, -1, -1):
-        for c in range(C):
-            for m in range(M):
-                within = True
-                for k in range(K):
-                    if counted[k] and mv_idx[m, k] > budgets[k]:
-                        within = False
-                if within and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
-                    alive[t, c, m] = 1
-
-
-def _alive_table(instance: Instance, lats, budgets, counted, radix):
-    """alive[t, config, moves]: from the robots' points in slot t, with these moves made, a
-    joint way exists that keeps every rule of sections 9 and 10 until the last slot. Also
-    returns what a walk through it needs: the joint moves (``_joint_moves``), each moves-made
-    index's counts and the strides of the moves-made index."""
-    K, T = instance.n_robots, instance.horizon
-    configs, nxt_cfg, moved = _joint_moves(lats[0].neighbors, K)
-    M = int(np.prod(radix))
-    mv_idx = np.array(list(itertools.product(*[range(r) for r in radix])), dtype=np.int64).reshape(M, K)
-    within = np.all(mv_idx <= np.where(counted, budgets, np.iinfo(np.int64).max), axis=1)
-    at_end = np.ones(len(configs), dtype=bool)
-    for k, lat in enumerate(lats):
-        if lat.end >= 0:
-            at_end &= configs[:, k] == lat.end
-    alive = np.zeros((T, len(configs), M), dtype=np.uint8)
-    alive[T - 1] = at_end[:, None] & within[None, :]
-    strides = np.cumprod([1, *radix[::-1]])[:-1][::-1].astype(np.int64)
-    _alive_backwards(alive, nxt_cfg, moved, np.asarray(counted), np.asarray(budgets), strides, mv_idx)
-    return alive, (configs, nxt_cfg, moved), mv_idx, strides
-
-
 def _budgets(instance: Instance, lats) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """Each robot's move budget, whether it binds (counted in the state), and the radix of
-    its moves-made digit."""
-    budgets = np.array([lat.budget for lat in lats], dtype=np.int64)
-    counted = budgets < instance.horizon - 1
-    radix = [int(b) + 2 if c else 1 for b, c in zip(budgets, counted, strict=True)]
-    return budgets, counted, radix
+    its moves-made digit (joint.budgets)."""
+    return joint.budgets([lat.budget for lat in lats], instance.horizon)
 
 
-LEGAL_PATHS_CELLS = 5 * 10**6  # the most joint configs x slots (or x joint moves) legal_paths tabulates (about 1 s)
+def _alive_table(instance: Instance, lats) -> joint.Table:
+    return joint.table(lats[0].neighbors, [lat.end for lat in lats], [lat.budget for lat in lats], instance.horizon)
+
+
+LEGAL_PATHS_CELLS = joint.CELLS
 
 
 def legal_paths(instance: Instance) -> np.ndarray | None:
     """(K, T) points of a legal joint plan of a fleet, found exactly: a walk forward from the
-    starts through the table of joint states that can still keep every rule to the last slot.
-    Raises NoJointPlan when the starts cannot (a proof that no legal plan exists); None where
-    the tables would pass LEGAL_PATHS_CELLS entries (then nothing is decided)."""
+    starts through the table of joint states that can still keep every rule to the last slot
+    (joint.walk). Raises NoJointPlan when the starts cannot (a proof that no legal plan
+    exists); None where the tables would pass LEGAL_PATHS_CELLS entries (then nothing is
+    decided)."""
     K, T = instance.n_robots, instance.horizon
     n = lattice_mod.n_points(instance)
-    if max(alive_bytes(instance), float(T) * n**K, float(n) ** K * 5**K) > LEGAL_PATHS_CELLS:
-        return None
     lats = [lattice_mod.build(instance.robot(k)) for k in range(K)]
-    budgets, counted, radix = _budgets(instance, lats)
-    alive, (configs, nxt_cfg, moved), mv_idx, strides = _alive_table(instance, lats, budgets, counted, radix)
-    c = 0
-    for lat in lats:
-        c = c * n + lat.start
-    m = 0
-    if not alive[0, c, m]:
+    if joint.cells(n, K, T, _budgets(instance, lats)[2]) > LEGAL_PATHS_CELLS:
+        return None
+    paths = joint.walk(_alive_table(instance, lats), [lat.start for lat in lats])
+    if paths is None:
         raise NoJointPlan(_no_joint_plan(instance))
-    path = [c]
-    for t in range(T - 1):  # alive in slot t: some move stays alive
-        c, m = _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)
-        path.append(c)
-    return configs[path].T.copy()
+    return paths
 
 
 def _no_joint_plan(instance: Instance) -> str:
@@ -329,7 +238,7 @@ def build(instance: Instance, reward: str = "voi", penalty: float = mdp_mod.IDLE
     budgets, counted, radix = _budgets(instance, lats)
     masked = bool(counted.any() or any(lat.end >= 0 for lat in lats))
     if masked:
-        alive = _alive_table(instance, lats, budgets, counted, radix)[0]
+        alive = _alive_table(instance, lats).alive
     else:
         alive = np.ones((1, 1, 1), dtype=np.uint8)
     starts = np.array([lat.start for lat in lats], dtype=np.int64)

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from voiopt import _numba_start, objectives
 from voiopt import lattice as lattice_mod
-from voiopt import objectives
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.objectives import check_objective
@@ -22,7 +22,7 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
-from voiopt.solvers import _dp_subsets, _numba_start
+from voiopt.solvers import _dp_subsets
 from voiopt.solvers._dp_shared import (
     CHUNK_WORK,
     PAIR_TABLE_BYTES,

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from voiopt import _numba_start
 from voiopt import lattice as lattice_mod
 from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
@@ -21,7 +22,7 @@ from voiopt.objectives import check_objective
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
-from voiopt.solvers import DP_MAX_ROBOTS, _numba_start
+from voiopt.solvers import DP_MAX_ROBOTS
 from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, table_bytes, watched
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, require_memory
 from voiopt.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, watch

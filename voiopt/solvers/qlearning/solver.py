@@ -9,6 +9,7 @@ import time
 import numpy as np
 from rich.progress import TextColumn
 
+from voiopt import _numba_start
 from voiopt import lattice as lattice_mod
 from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
@@ -19,7 +20,7 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate_indices
-from voiopt.solvers import _numba_start, base
+from voiopt.solvers import base
 from voiopt.solvers.qlearning import _fleet
 from voiopt.solvers.qlearning._kernels import rollout, train
 from voiopt.solvers.qlearning._qtable import QTable

@@ -1,0 +1,184 @@
+"""Whether the robots of a fleet can keep every rule together (MODEL.md sections 9 and 10).
+
+Each robot alone may reach its ``end`` within its ``max_moves`` and still the fleet have no
+legal plan: two robots in a corridor cannot pass each other. ``table`` fills, backwards over
+the slots, which joint points (and moves made, where a budget binds) can still reach the last
+slot keeping every rule: no shared point, no swap, no blocked point, every end and budget. It
+is exact, and its size is the joint points times the slots (times the budgets' digits), so it
+is used only up to CELLS entries: by validation (instance.py rejects a fleet with no joint
+plan) and by the fleet's MDP and baselines (models/fleet_mdp.py).
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from voiopt import _grid, _numba_start
+
+CELLS = 5 * 10**6  # the most joint points x slots (or x joint moves) tabulated by validation and legal_paths (~1 s)
+
+
+@dataclass(frozen=True, eq=False)
+class Table:
+    alive: np.ndarray  # (T, n**K, M) uint8: alive[t, config, moves made]
+    configs: np.ndarray  # (n**K, K) the robots' points of each joint point, robot 0 most significant
+    nxt_cfg: np.ndarray  # (n**K, 5**K) the joint point after each joint move, -1 where illegal
+    moved: np.ndarray  # (5**K, n**K, K) whether each robot moves
+    mv_idx: np.ndarray  # (M, K) each robot's moves made, by moves-made index
+    strides: np.ndarray  # (K,) the strides of the moves-made index
+    counted: np.ndarray  # (K,) bool: the robot's budget binds (its moves made are counted)
+    budgets: np.ndarray  # (K,) each robot's min(max_moves, T - 1)
+    n_points: int
+
+
+def budgets(max_moves, horizon: int) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Each robot's move budget min(max_moves, T - 1), whether it binds, and the radix of its
+    moves-made digit (budget + 2: one past the budget marks "over")."""
+    b = np.array([horizon - 1 if m is None else min(int(m), horizon - 1) for m in max_moves], dtype=np.int64)
+    counted = b < horizon - 1
+    return b, counted, [int(x) + 2 if c else 1 for x, c in zip(b, counted, strict=True)]
+
+
+def cells(n_points: int, n_robots: int, horizon: int, radix) -> float:
+    """The entries ``table`` fills: its slots x joint points x moves made, and the joint moves."""
+    joint = float(n_points) ** n_robots
+    return max(horizon * joint * float(np.prod(radix)), joint * 5.0**n_robots)
+
+
+@nb.njit(cache=True)
+def _joint_moves(neighbors, K):
+    """(configs, next config, moved) of every joint move (5**K, robot 0's move most
+    significant) from every joint point (n**K, robot 0's point most significant); next config
+    -1 where a move leaves the area or hits a blocked point, or two robots share or swap points."""
+    n = neighbors.shape[0]
+    C, J = n**K, 5**K
+    configs = np.empty((C, K), np.int64)
+    for c in range(C):
+        x = c
+        for k in range(K - 1, -1, -1):
+            configs[c, k] = x % n
+            x //= n
+    nxt_cfg = np.full((C, J), -1, np.int64)
+    moved = np.zeros((J, C, K), np.bool_)
+    nxt = np.empty(K, np.int64)
+    for c in range(C):
+        for mv in range(J):
+            x, ok = mv, True
+            for k in range(K - 1, -1, -1):
+                nxt[k] = neighbors[configs[c, k], x % 5]
+                x //= 5
+                moved[mv, c, k] = nxt[k] != configs[c, k]
+                ok = ok and nxt[k] >= 0
+            for k in range(1, K):
+                for j in range(k):
+                    if configs[c, k] == configs[c, j] or nxt[k] == nxt[j] or (
+                            nxt[k] == configs[c, j] and nxt[j] == configs[c, k]):
+                        ok = False
+            if ok:
+                idx = 0
+                for k in range(K):
+                    idx = idx * n + nxt[k]
+                nxt_cfg[c, mv] = idx
+    return configs, nxt_cfg, moved
+
+
+@nb.njit(cache=True, inline="always")
+def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx):
+    """The first joint move from joint point ``c`` with moves made ``m`` in slot t that leads
+    to a joint point and moves made alive in slot t + 1, no counted robot passing its budget:
+    (next joint point, next moves made), or (-1, -1) if none does."""
+    K = counted.shape[0]
+    for mv in range(nxt_cfg.shape[1]):
+        c2 = nxt_cfg[c, mv]
+        if c2 < 0:
+            continue
+        m2, good = m, True
+        for k in range(K):
+            if counted[k] and moved[mv, c, k]:
+                if mv_idx[m, k] + 1 > budgets[k]:
+                    good = False
+                m2 += strides[k]
+        if good and alive[t + 1, c2, m2]:
+            return c2, m2
+    return -1, -1
+
+
+@nb.njit(cache=True)
+def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
+    """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: some joint move leads to a joint point
+    and moves made that are alive in the next slot (``_next_alive``)."""
+    T, C, M = alive.shape
+    K = counted.shape[0]
+    for t in range(T - 2, -1, -1):
+        for c in range(C):
+            for m in range(M):
+                within = True
+                for k in range(K):
+                    if counted[k] and mv_idx[m, k] > budgets[k]:
+                        within = False
+                if within and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
+                    alive[t, c, m] = 1
+
+
+def table(neighbors: np.ndarray, ends, max_moves, horizon: int) -> Table:
+    """The alive table of K robots on one lattice (``_grid.neighbors``), each with its end
+    (point index, or -1 for none) and max_moves (or None)."""
+    K, T = len(ends), horizon
+    bud, counted, radix = budgets(max_moves, T)
+    _numba_start.start()
+    configs, nxt_cfg, moved = _joint_moves(neighbors, K)
+    M = int(np.prod(radix))
+    mv_idx = np.array(list(itertools.product(*[range(r) for r in radix])), dtype=np.int64).reshape(M, K)
+    within = np.all(mv_idx <= np.where(counted, bud, np.iinfo(np.int64).max), axis=1)
+    at_end = np.ones(len(configs), dtype=bool)
+    for k, end in enumerate(ends):
+        if end >= 0:
+            at_end &= configs[:, k] == end
+    alive = np.zeros((T, len(configs), M), dtype=np.uint8)
+    alive[T - 1] = at_end[:, None] & within[None, :]
+    strides = np.cumprod([1, *radix[::-1]])[:-1][::-1].astype(np.int64)
+    _alive_backwards(alive, nxt_cfg, moved, counted, bud, strides, mv_idx)
+    return Table(alive, configs, nxt_cfg, moved, mv_idx, strides, counted, bud, neighbors.shape[0])
+
+
+def start_index(starts, n_points: int) -> int:
+    """The joint point of the robots' points (robot 0 most significant)."""
+    c = 0
+    for p in starts:
+        c = c * n_points + int(p)
+    return c
+
+
+def walk(tab: Table, starts) -> np.ndarray | None:
+    """(K, T) points of a legal joint plan from the starts, the first alive joint move in each
+    slot; None if the starts are not alive (no legal plan exists)."""
+    c, m = start_index(starts, tab.n_points), 0
+    if not tab.alive[0, c, m]:
+        return None
+    path = [c]
+    for t in range(tab.alive.shape[0] - 1):  # alive in slot t: some move stays alive
+        c, m = _next_alive(tab.alive, t, c, m, tab.nxt_cfg, tab.moved, tab.counted, tab.budgets, tab.strides,
+                           tab.mv_idx)
+        path.append(c)
+    return tab.configs[path].T.copy()
+
+
+@functools.lru_cache(maxsize=32)
+def possible(nx: int, ny: int, blocked: tuple[int, ...], starts: tuple[int, ...], ends: tuple[int, ...],
+             max_moves: tuple[int | None, ...], horizon: int) -> bool | None:
+    """Whether some legal joint plan exists (validation's question; points are lattice indices,
+    ends -1 for none), or None where the table would pass CELLS entries. Without ends every
+    robot may stay where it starts: True. Cached: a fleet loaded again is not tabulated again."""
+    if all(e < 0 for e in ends):
+        return True
+    if cells(nx * ny, len(starts), horizon, budgets(max_moves, horizon)[2]) > CELLS:
+        return None
+    mask = np.zeros(nx * ny, dtype=bool)
+    mask[list(blocked)] = True
+    tab = table(_grid.neighbors(nx, ny, mask), ends, max_moves, horizon)
+    return bool(tab.alive[0, start_index(starts, nx * ny), 0])
