@@ -16,6 +16,7 @@ from __future__ import annotations
 import sys
 
 QUICK = False  # set by the command line (voiopt.cli.run), which imports this module but not numba
+_started = False
 
 
 def _first(x: int) -> int:  # compiled by start(): numba is imported only by commands that use it
@@ -25,6 +26,9 @@ def _first(x: int) -> int:  # compiled by start(): numba is imported only by com
 def start() -> None:
     """Initialise numba (once per process): without its BLAS check if QUICK and scipy.linalg
     has not been imported yet, else as numba does by itself."""
+    global _started
+    if _started:
+        return
     import numba as nb
 
     hide = QUICK and "numba.np.arraymath" not in sys.modules and "scipy.linalg" not in sys.modules
@@ -32,6 +36,7 @@ def start() -> None:
         sys.modules["scipy.linalg"] = None  # an ImportError for it and its submodules
     try:
         nb.njit(cache=True)(_first)(1)
+        _started = True
     finally:
         if hide and "scipy.linalg" in sys.modules and sys.modules["scipy.linalg"] is None:
             del sys.modules["scipy.linalg"]
