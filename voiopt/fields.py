@@ -8,6 +8,8 @@ shift starts and ends, and sensors on the machines and shelves along the aisles.
 from __future__ import annotations
 
 import dataclasses
+import functools
+import itertools
 import math
 
 import numpy as np
@@ -88,7 +90,10 @@ def add_robots(inst: Instance, rng: np.random.Generator, robots: int, dock: bool
     on the free points, or with ``dock`` the free points nearest robot 0's start (fewest
     moves, then index). Every robot has robot 0's budget. ``end`` as the generator took it:
     "start" gives each robot its own start as end; "random" a free point it reaches in time
-    and budget, distinct from the others' ends; a point, the free points nearest it."""
+    and budget, distinct from the others' ends; a point, the free points nearest it. Ends are
+    drawn again ("random", up to END_TRIES times) or handed to the robots in another order (a
+    point) until the robots can all reach them together (voiopt.joint: in a corridor two robots
+    cannot pass), since validation rejects a fleet with no legal joint plan."""
     if isinstance(robots, bool) or not isinstance(robots, int) or robots < 1:
         raise OptionError(f"robots: must be an integer >= 1, got {robots!r}")
     if robots == 1:
@@ -102,24 +107,50 @@ def add_robots(inst: Instance, rng: np.random.Generator, robots: int, dock: bool
         raise OptionError(f"robots: must be at most {min(len(free), instance_mod.MAX_ROBOTS)} (one free lattice "
                           f"point each), got {robots}")
     first = point_index(inst.start, inst.step, ny)
-    if dock:
-        starts = _nearest(nx, ny, blocked, first, robots)
+    for _ in range(END_TRIES if end == "random" else 1):
+        if dock:
+            starts = _nearest(nx, ny, blocked, first, robots)
+        else:
+            starts = [first, *rng.choice(free[free != first], robots - 1, replace=False).tolist()]
+        ends = starts if end == "start" else [None] * robots if end is None else _together_ends(inst, rng, end, nx,
+                                                                                                ny, blocked, starts)
+        if ends is not None:
+            break
     else:
-        starts = [first, *rng.choice(free[free != first], robots - 1, replace=False).tolist()]
-    ends: list = [None] * robots
-    if end == "start":
-        ends = starts
-    elif end == "random":
-        ends = [point_index(inst.end, inst.step, ny)]
-        budget = inst.horizon - 1 if inst.max_moves is None else min(inst.horizon - 1, inst.max_moves)
-        for k in starts[1:]:
-            reach = [int(q) for q in np.flatnonzero(_grid.steps(nx, ny, blocked, k) <= budget) if q not in ends]
-            ends.append(reach[int(rng.integers(len(reach)))] if reach else k)
-    elif end is not None:
-        ends = _nearest(nx, ny, blocked, point_index(inst.end, inst.step, ny), robots)
+        raise OptionError(f"end: {END_TRIES} draws of random starts and ends gave none that the {robots} robots can "
+                          f"reach together in {inst.horizon} slots (two robots may not share or swap points); give "
+                          f"a longer horizon, fewer obstacles or --end start")
     fleet = tuple(Robot(_point(a, inst.step, ny), None if b is None else _point(b, inst.step, ny), inst.max_moves)
                   for a, b in zip(starts, ends, strict=True))
     return dataclasses.replace(inst, start=fleet[0].start, end=fleet[0].end, fleet=fleet)
+
+
+END_TRIES = 100  # draws of random ends for robots that must reach them together
+
+
+def _together_ends(inst: Instance, rng: np.random.Generator, end, nx: int, ny: int, blocked: np.ndarray,
+                   starts: list[int]) -> list[int] | None:
+    """add_robots' ends by ``end`` that the robots can reach together from ``starts`` (or where
+    joint.possible cannot decide): "random", one draw (None if they cannot); a point, the free
+    points nearest it in the first order of the robots that works (OptionError if none does)."""
+    from voiopt import joint  # numba: only for robots with ends
+
+    budget = inst.horizon - 1 if inst.max_moves is None else min(inst.horizon - 1, inst.max_moves)
+    together = functools.partial(joint.possible, nx, ny, tuple(np.flatnonzero(blocked).tolist()), tuple(starts))
+    moves = (inst.max_moves,) * len(starts)
+    if end == "random":
+        ends = [point_index(inst.end, inst.step, ny)]
+        for k in starts[1:]:
+            reach = [int(q) for q in np.flatnonzero(_grid.steps(nx, ny, blocked, k) <= budget) if q not in ends]
+            ends.append(reach[int(rng.integers(len(reach)))] if reach else k)
+        return ends if together(tuple(ends), moves, inst.horizon) is not False else None
+    nearest = _nearest(nx, ny, blocked, point_index(inst.end, inst.step, ny), len(starts))
+    for ends in itertools.islice(itertools.permutations(nearest), 120):
+        if together(ends, moves, inst.horizon) is not False:
+            return list(ends)
+    raise OptionError(f"end: the {len(starts)} free points nearest {list(inst.end)} cannot be reached by the "
+                      f"{len(starts)} robots together in {inst.horizon} slots, in any order (two robots may not share or "
+                      f"swap points); give another end or a longer horizon")
 
 
 def _nearest(nx: int, ny: int, blocked: np.ndarray, origin: int, count: int) -> list[int]:

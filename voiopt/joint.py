@@ -28,7 +28,7 @@ class Table:
     alive: np.ndarray  # (T, n**K, M) uint8: alive[t, config, moves made]
     configs: np.ndarray  # (n**K, K) the robots' points of each joint point, robot 0 most significant
     nxt_cfg: np.ndarray  # (n**K, 5**K) the joint point after each joint move, -1 where illegal
-    moved: np.ndarray  # (5**K, n**K, K) whether each robot moves
+    moved: np.ndarray  # (n**K, 5**K, K) whether each robot moves
     mv_idx: np.ndarray  # (M, K) each robot's moves made, by moves-made index
     strides: np.ndarray  # (K,) the strides of the moves-made index
     counted: np.ndarray  # (K,) bool: the robot's budget binds (its moves made are counted)
@@ -63,16 +63,21 @@ def _joint_moves(neighbors, K):
         for k in range(K - 1, -1, -1):
             configs[c, k] = x % n
             x //= n
+    digit = np.empty((J, K), np.int64)  # each robot's move in joint move mv
+    for mv in range(J):
+        x = mv
+        for k in range(K - 1, -1, -1):
+            digit[mv, k] = x % 5
+            x //= 5
     nxt_cfg = np.full((C, J), -1, np.int64)
-    moved = np.zeros((J, C, K), np.bool_)
+    moved = np.empty((C, J, K), np.bool_)
     nxt = np.empty(K, np.int64)
     for c in range(C):
         for mv in range(J):
-            x, ok = mv, True
-            for k in range(K - 1, -1, -1):
-                nxt[k] = neighbors[configs[c, k], x % 5]
-                x //= 5
-                moved[mv, c, k] = nxt[k] != configs[c, k]
+            ok = True
+            for k in range(K):
+                nxt[k] = neighbors[configs[c, k], digit[mv, k]]
+                moved[c, mv, k] = nxt[k] != configs[c, k]
                 ok = ok and nxt[k] >= 0
             for k in range(1, K):
                 for j in range(k):
@@ -99,7 +104,7 @@ def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_id
             continue
         m2, good = m, True
         for k in range(K):
-            if counted[k] and moved[mv, c, k]:
+            if counted[k] and moved[c, mv, k]:
                 if mv_idx[m, k] + 1 > budgets[k]:
                     good = False
                 m2 += strides[k]
