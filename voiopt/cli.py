@@ -320,7 +320,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="seconds (default: none)")
     s.add_argument("--gap", type=float, default=None, metavar="G", help="milp: relative MIP gap (default 0: exact)")
-    s.add_argument("--threads", type=_count, default=None, metavar="K", help="milp: HiGHS threads (default: HiGHS's)")
+    s.add_argument("--threads", type=_count, default=None, metavar="K", help="milp: HiGHS threads (default: HiGHS's); dp: chunks of a slot "
+                   "expanded at once, the same plan sooner on K cores (default 1)")
     _add_qlearning_options(s, seeds=False)
     s.add_argument("--seed", type=_count, default=None, metavar="S",
                    help="seed of a randomised method (default 0)")

@@ -134,3 +134,39 @@ def test_progress_shows_incumbent_bound_and_gap_in_the_objectives_units(objectiv
     bound = max(layer) if objective == "mean-min-voi" else min(layer)
     assert text == f"  best {best:.6g}  bound {bound:.6g}  gap {100 * abs(bound - best) / abs(bound):.3g} %"
     assert dp._progress_bound(tab, -np.inf, np.array(layer)) == ""
+
+
+def test_threads_keep_every_label_plan_and_bound():
+    """threads=K expands K chunks of a slot at once; the chunks are independent, so every pass
+    keeps the same labels whatever K is (this network needs the beam passes and the subsets,
+    whose own bounded passes use the threads too)."""
+    inst = voiopt.generate(8, 30, seed=5)
+    one = dp.solve(inst, "mean-min-voi")
+    two = dp.solve(inst, "mean-min-voi", threads=2)
+    assert one.status == two.status == "optimal" and "beam 16" in one.solver["passes"]
+    assert one.plan == two.plan and one.value == two.value and one.bound == two.bound
+    assert one.solver["passes"] == two.solver["passes"] and one.solver["labels"] == two.solver["labels"]
+    assert [s["labels"] for s in one.solver["subsets"]] == [s["labels"] for s in two.solver["subsets"]]
+    inst = voiopt.generate(6, 30, seed=5)  # a bounded pass from just below the optimum
+    tab = dp.build_tables(inst, "mean-min-voi")
+    tab.with_tour_bound()
+    inc = dp._internal(tab, dp.solve(inst, "mean-min-voi").value) * (1 - 1e-3)
+    passes = [dp.search(tab, inc, threads=k) for k in (1, 2, 3)]
+    assert passes[0].complete and passes[0].labels > 10_000 and passes[0].plan is not None
+    for p in passes[1:]:
+        assert (p.labels, p.generated, p.value) == (passes[0].labels, passes[0].generated, passes[0].value)
+        assert all((a == b).all() for a, b in zip(p.plan, passes[0].plan, strict=True))
+    assert (one.solver["options"]["threads"], two.solver["options"]["threads"]) == (1, 2)
+
+
+def test_threads_stop_at_the_time_limit_and_are_checked():
+    inst = voiopt.generate(8, 40, width=8, height=8, seed=3)
+    r = dp.solve(inst, "mean-min-voi", time_limit=0.5, threads=2)
+    assert r.status == "time_limit" and r.runtime_s < 0.5 + 1.0 and r.bound >= r.value
+    assert voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value
+    for bad in (0, 1.5, True):
+        with pytest.raises(OptionError, match="--threads: must be an integer >= 1"):
+            dp.solve(inst, "mean-min-voi", threads=bad)
+    fleet = voiopt.generate(3, 6, width=2.0, height=2.0, seed=0, robots=2)
+    with pytest.raises(OptionError, match="--threads: an option of the one-robot dp"):
+        dp.solve(fleet, "mean-min-voi", threads=2)

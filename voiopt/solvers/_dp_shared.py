@@ -158,19 +158,42 @@ def watched(stop: Stop, kernel, *args):
     """Run a nogil kernel (whose last argument is a halt flag) in a thread; the calling thread
     checks the stop rule every WATCH_S seconds and raises the flag, so a time limit or Ctrl-C
     stops even one long kernel call within a fraction of a second."""
+    return watched_all(stop, kernel, [args], 1)[0]
+
+
+def watched_all(stop: Stop, kernel, calls: list[tuple], threads: int) -> list:
+    """``watched`` for several calls of one nogil kernel, up to ``threads`` of them at once
+    (they run in parallel, since the kernel releases the GIL); the results in the calls' order,
+    whatever order they finish in. One halt flag stops them all: a call made after it is up
+    returns at once, halted."""
     halt = np.zeros(1, dtype=np.uint8)
-    box: list = []
-    worker = threading.Thread(target=lambda: box.append(kernel(*args, halt)), daemon=True)
-    worker.start()
+    results: list = [None] * len(calls)
+    done = [False] * len(calls)
+    todo = iter(range(len(calls)))
+    lock = threading.Lock()
+
+    def work() -> None:
+        while True:
+            with lock:
+                i = next(todo, None)
+            if i is None:
+                return
+            results[i] = kernel(*calls[i], halt)
+            done[i] = True
+
+    workers = [threading.Thread(target=work, daemon=True) for _ in range(max(1, min(threads, len(calls))))]
+    for w in workers:
+        w.start()
     try:
-        while worker.is_alive():
-            worker.join(WATCH_S)
-            if stop.check() is not None:
-                halt[0] = 1
-    finally:  # a second Ctrl-C raises here: the kernel must not run on behind it
-        if worker.is_alive():
+        for w in workers:
+            while w.is_alive():
+                w.join(WATCH_S)
+                if stop.check() is not None:
+                    halt[0] = 1
+    finally:  # a second Ctrl-C raises here: the kernels must not run on behind it
+        if any(w.is_alive() for w in workers):
             halt[0] = 1
-    if not box:
+    if not all(done):
         raise RuntimeError("dp: a kernel failed in its thread")
-    return box[0]
+    return results
 

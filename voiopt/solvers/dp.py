@@ -29,9 +29,9 @@ from voiopt.solvers._dp_shared import (
     Tables,
     build_tables,
     table_bytes,
+    watched_all,
 )
-from voiopt.solvers._dp_shared import watched as _watched
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, require_memory
+from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, check_threads, require_memory
 from voiopt.stop import TIME_LIMIT, Stop, watch
 
 __all__ = ["CHUNK_WORK", "PAIR_TABLE_BYTES", "Tables", "build_tables", "table_bytes", "search", "solve", "warm_up"]
@@ -55,12 +55,30 @@ class SearchOutcome:
     stopped: str | None = None  # why an incomplete pass stopped
 
 
+def _chunks(work: np.ndarray, threads: int) -> list[tuple[int, int]]:
+    """Runs (q_lo, q_hi) of target points of about CHUNK_WORK (label, upload) pairs each (at
+    least one point): one kernel call each. With threads, smaller ones, so that a slot gives
+    each thread about four to do."""
+    size = CHUNK_WORK if threads == 1 else min(CHUNK_WORK, max(1, int(work.sum()) // (4 * threads)))
+    chunks, n, q_lo = [], len(work), 0
+    while q_lo < n:
+        q_hi, total = q_lo + 1, work[q_lo]
+        while q_hi < n and total + work[q_hi] <= size:
+            total += work[q_hi]
+            q_hi += 1
+        chunks.append((q_lo, q_hi))
+        q_lo = q_hi
+    return chunks
+
+
 def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = True, bounding: bool = True,
            tdma: bool = True, stop: Stop | None = None, label_budget: int | None = None,
-           progress: bool = False) -> SearchOutcome:
+           progress: bool = False, threads: int = 1) -> SearchOutcome:
     """One forward pass. ``beam`` > 0 keeps only that many labels per point (a heuristic).
     It stops early, incomplete, when the stop rule says so (time, memory of its labels,
-    Ctrl-C) or after more than ``label_budget`` labels."""
+    Ctrl-C) or after more than ``label_budget`` labels. A slot's target points are expanded in
+    chunks, ``threads`` chunks at a time: they are independent, so the labels are the same
+    whatever ``threads`` is."""
     stop = stop or Stop()
     from voiopt.solvers import _dp_core as core
 
@@ -94,24 +112,19 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                 work += np.where(nb >= 0, per_point[np.maximum(nb, 0)], 0)
             parts = []
             l_ranks, l_acc, l_ub, l_left = ranks[idx], acc[idx], ub[idx], left[idx]
-            q_lo = 0
+            chunks = _chunks(work, threads)
             stopped = False
-            while q_lo < n:
-                q_hi = q_lo + 1
-                total = work[q_lo]
-                while q_hi < n and total + work[q_hi] <= CHUNK_WORK:
-                    total += work[q_hi]
-                    q_hi += 1
-                out = _watched(stop, core.expand, tab.mode, t, l_ranks, l_acc, l_ub, l_left, off, tab.neighbors,
-                               tab.up_rank, tab.in_range_list, tab.in_range_count, tab.W, tab.best_rank, inc, q_lo,
-                               q_hi, beam, collapse, tdma, tab.pair, tab.steps, tab.to_end, tab.budget_lane)
-                if out[8]:  # halted by the stop rule: this layer is abandoned, its parents stay open
+            for b in range(0, len(chunks), threads):  # memory and labels are checked between batches
+                outs = watched_all(stop, core.expand, [
+                    (tab.mode, t, l_ranks, l_acc, l_ub, l_left, off, tab.neighbors, tab.up_rank, tab.in_range_list,
+                     tab.in_range_count, tab.W, tab.best_rank, inc, q_lo, q_hi, beam, collapse, tdma, tab.pair,
+                     tab.steps, tab.to_end, tab.budget_lane) for q_lo, q_hi in chunks[b:b + threads]], threads)
+                if any(out[8] for out in outs):  # halted by the stop rule: the layer is abandoned, its parents stay open
                     return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stop.reason)
-                out = (*out[:3], idx[out[3]], *out[4:])
-                parts.append(out)
-                generated += int(out[7])
-                q_lo = q_hi
-                if q_lo < n:
+                for out in outs:
+                    parts.append((*out[:3], idx[out[3]], *out[4:]))
+                    generated += int(out[7])
+                if b + threads < len(chunks):
                     stopped = _must_stop(stop, tab.nbytes + stored + sum(p[0].nbytes for p in parts),
                                          label_budget, labels + sum(len(p[1]) for p in parts))
                     if stopped:
@@ -227,6 +240,7 @@ def solve(
     tour_bound: bool = True, subsets: bool = True,
     fast_budget: int = FAST_BUDGET,
     quick_beam: int = QUICK_BEAM,
+    threads: int = 1,
 ) -> Result:
     """Optimal plan by label setting; on a time or memory limit (GB, of the labels) or Ctrl-C,
     the best plan and a proven bound, with the stop's reason as the status.
@@ -234,14 +248,16 @@ def solve(
     Small instances are solved by one pass with no incumbent but the warm start: if that pass
     needs more than ``fast_budget`` labels it is abandoned, incumbents are computed (greedy and
     a beam pass of width ``beam``) and a bounded pass proves the optimum. ``greedy``,
-    ``collapse`` and ``bounding`` switch ingredients off for measurements (docs/dp.md)."""
+    ``collapse`` and ``bounding`` switch ingredients off for measurements (docs/dp.md).
+    ``threads`` > 1 expands that many chunks of a slot at once: the same labels and plan, sooner
+    on as many cores."""
     if instance.fleet:  # several robots: the joint programme (docs/dp.md, "Several robots")
         from voiopt.solvers import fleet_dp
 
         one_robot = dict(greedy=(greedy, True), collapse=(collapse, True), tdma=(tdma, True),
                          pair_bound=(pair_bound, True), tour_bound=(tour_bound, True),
                          subsets=(subsets, True), fast_budget=(fast_budget, FAST_BUDGET),
-                         quick_beam=(quick_beam, QUICK_BEAM))
+                         quick_beam=(quick_beam, QUICK_BEAM), threads=(threads, 1))
         for key, (given, default) in one_robot.items():
             if given != default:
                 raise OptionError(f"--{key.replace('_', '-')}: an option of the one-robot dp, not of dp for several robots")
@@ -251,16 +267,19 @@ def solve(
                               bounding=bounding)
     check_objective(objective)
     check_limits(time_limit, memory_limit)
+    check_threads(threads)
     require_memory(table_bytes(instance), memory_limit, "dp's tables")
     startup_s = warm_up()
     with watch(time_limit, memory_limit) as stop:
         return _solve(instance, objective, stop, startup_s, warm_start=warm_start, beam=beam, greedy=greedy,
                       collapse=collapse, bounding=bounding, tdma=tdma, pair_bound=pair_bound,
-                      tour_bound=tour_bound, subsets=subsets, fast_budget=fast_budget, quick_beam=quick_beam, progress=progress)
+                      tour_bound=tour_bound, subsets=subsets, fast_budget=fast_budget, quick_beam=quick_beam,
+                      progress=progress, threads=int(threads))
 
 
 def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, warm_start, beam, greedy,
-           collapse, bounding, tdma, pair_bound, tour_bound, subsets, fast_budget, quick_beam, progress) -> Result:
+           collapse, bounding, tdma, pair_bound, tour_bound, subsets, fast_budget, quick_beam, progress,
+           threads) -> Result:
     tab = build_tables(instance, objective)
     if tour_bound and tdma and objectives.get(objective).per_slot:  # the bottleneck ones: slower, no tighter (docs/dp.md)
         tab.with_tour_bound()
@@ -283,7 +302,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         offer(warm_start, "warm_start")
     passes = []
     # the fast passes use only the cheap bound: at the paper's scale the tight ones cost more than they save
-    limits = dict(collapse=collapse, bounding=bounding, tdma=False, stop=stop)
+    limits = dict(collapse=collapse, bounding=bounding, tdma=False, stop=stop, threads=threads)
 
     def beam_pass(width: int) -> None:  # a heuristic pass: at most ``width`` labels per point
         b = search(tab, inc(), beam=width, **limits)
@@ -294,7 +313,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     relaxed, subset_runs = np.inf, []  # the subsets' bound (internal units) and their records, if they ran
     if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
         beam_pass(quick_beam)
-    out = search(tab, inc(), label_budget=fast_budget, progress=progress, **limits)
+    # one thread: the label budget is checked after each chunk, and this pass is short
+    out = search(tab, inc(), label_budget=fast_budget, progress=progress, **{**limits, "threads": 1})
     passes.append(("fast", out))
     if not out.complete:
         plan = _greedy_plan(instance, objective, stop) if greedy and not stop.requested else None
@@ -309,7 +329,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if subsets and bounding and out.stopped == LABEL_BUDGET:
             def solve_subset(sub: Instance, seconds: float, warm: Plan | None) -> Result:
                 return solve(sub, objective, time_limit=seconds, memory_limit=stop.memory_limit, warm_start=warm,
-                             subsets=False)
+                             subsets=False, threads=threads)
 
             relaxed, subset_runs = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
                                         solve_subset, progress)
@@ -343,7 +363,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         "incumbents": incumbents,
         "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding, "tdma": tdma,
                     "pair_bound": tab.pair.shape[0] > 0, "tour_bound": tab.steps.shape[0] > 0, "subsets": subsets,
-                    "fast_budget": fast_budget, "time_limit": stop.time_limit, "memory_limit": stop.memory_limit},
+                    "fast_budget": fast_budget, "time_limit": stop.time_limit, "memory_limit": stop.memory_limit,
+                    "threads": threads},
     }
     solver["startup_s"] = startup_s
     if np.isfinite(relaxed):
