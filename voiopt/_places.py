@@ -196,7 +196,8 @@ def check_together(ck: Checker, width, height, step, horizon, blocked, robots) -
     starts = tuple(point_index(r[0], step, ny) for _, r in robots)
     ends = tuple(-1 if r[1] is None else point_index(r[1], step, ny) for _, r in robots)
     if joint.possible(nx, ny, blocked, starts, ends, tuple(r[2] for _, r in robots), horizon) is False:
-        rules = ", ".join(f"{path}: {_xy(r[0])} to {_xy(r[1])}" for path, r in robots if r[1] is not None)
+        rules = ", ".join(f"{path}: {_xy(r[0])}" + ("" if r[1] is None else f" to {_xy(r[1])}")
+                          + ("" if r[2] is None else f", max_moves {r[2]}") for path, r in robots)
         budgets = " and max_moves" if any(r[2] is not None for _, r in robots) else ""
         ck.fail("robots", f"no legal joint plan: each robot can reach its end alone, but in {horizon} slots the robots "
                           f"cannot all keep their ends{budgets} without two of them sharing or swapping points "

@@ -16,6 +16,7 @@ import numpy as np
 
 from voiopt import _grid
 from voiopt import instance as instance_mod
+from voiopt._places import _xy
 from voiopt.errors import OptionError
 from voiopt.instance import (
     LATTICE_TOL,
@@ -117,9 +118,11 @@ def add_robots(inst: Instance, rng: np.random.Generator, robots: int, dock: bool
         if ends is not None:
             break
     else:
-        raise OptionError(f"end: {END_TRIES} draws of random starts and ends gave none that the {robots} robots can "
-                          f"reach together in {inst.horizon} slots (two robots may not share or swap points); give "
-                          f"a longer horizon, fewer obstacles or --end start")
+        raise OptionError(f"end: network {inst.name}: {END_TRIES} draws of starts and ends for robots 1..{robots - 1} "
+                          f"gave none that can finish together with robot 0 (from {_xy(inst.start)} to "
+                          f"{_xy(inst.end)}, the one-robot network's) in {inst.horizon} slots: two robots may not share "
+                          f"or swap points, and the free points may leave no room to pass; give fewer robots, fewer "
+                          f"obstacles or --end start")
     fleet = tuple(Robot(_point(a, inst.step, ny), None if b is None else _point(b, inst.step, ny), inst.max_moves)
                   for a, b in zip(starts, ends, strict=True))
     return dataclasses.replace(inst, start=fleet[0].start, end=fleet[0].end, fleet=fleet)
@@ -148,9 +151,9 @@ def _together_ends(inst: Instance, rng: np.random.Generator, end, nx: int, ny: i
     for ends in itertools.islice(itertools.permutations(nearest), 120):
         if together(ends, moves, inst.horizon) is not False:
             return list(ends)
-    raise OptionError(f"end: the {len(starts)} free points nearest {list(inst.end)} cannot be reached by the "
-                      f"{len(starts)} robots together in {inst.horizon} slots, in any order (two robots may not share or "
-                      f"swap points); give another end or a longer horizon")
+    raise OptionError(f"end: network {inst.name}: the {len(starts)} free points nearest {_xy(inst.end)} cannot be "
+                      f"reached by the {len(starts)} robots together in {inst.horizon} slots, in any order (two robots "
+                      f"may not share or swap points); give another end, fewer robots or a longer horizon")
 
 
 def _nearest(nx: int, ny: int, blocked: np.ndarray, origin: int, count: int) -> list[int]:

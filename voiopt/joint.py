@@ -20,7 +20,8 @@ import numpy as np
 
 from voiopt import _grid, _numba_start
 
-CELLS = 5 * 10**6  # the most joint points x slots (or x joint moves) tabulated by validation and legal_paths (~1 s)
+CELLS = 5 * 10**6  # the most joint points x slots (or x joint moves) tabulated by legal_paths (about 1 s)
+WORK = 6 * 10**8  # the most entries x joint moves validation tabulates (about 1 s: up to 5**K moves tried per entry)
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,10 +117,13 @@ def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_id
 @nb.njit(cache=True)
 def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
     """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: some joint move leads to a joint point
-    and moves made that are alive in the next slot (``_next_alive``)."""
+    and moves made that are alive in the next slot (``_next_alive``). The step from one slot to
+    the one before does not depend on the slot, so once a slot equals the next one, every
+    earlier slot equals it too: they are copied, not computed (a long horizon costs little)."""
     T, C, M = alive.shape
     K = counted.shape[0]
     for t in range(T - 2, -1, -1):
+        same = True
         for c in range(C):
             for m in range(M):
                 within = True
@@ -128,6 +132,19 @@ def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
                         within = False
                 if within and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
                     alive[t, c, m] = 1
+                same = same and alive[t, c, m] == alive[t + 1, c, m]
+        if same:
+            for t2 in range(t - 1, -1, -1):
+                alive[t2] = alive[t]
+            return
+
+
+@functools.lru_cache(maxsize=2)
+def _moves_of(neighbors: bytes, n: int, K: int):
+    """_joint_moves of a lattice's neighbours (as bytes), kept for the next table on the same
+    lattice: the generator tries many ends on one lattice."""
+    _numba_start.start()
+    return _joint_moves(np.frombuffer(neighbors, dtype=np.int64).reshape(n, 5), K)
 
 
 def table(neighbors: np.ndarray, ends, max_moves, horizon: int) -> Table:
@@ -135,8 +152,7 @@ def table(neighbors: np.ndarray, ends, max_moves, horizon: int) -> Table:
     (point index, or -1 for none) and max_moves (or None)."""
     K, T = len(ends), horizon
     bud, counted, radix = budgets(max_moves, T)
-    _numba_start.start()
-    configs, nxt_cfg, moved = _joint_moves(neighbors, K)
+    configs, nxt_cfg, moved = _moves_of(neighbors.tobytes(), neighbors.shape[0], K)
     M = int(np.prod(radix))
     mv_idx = np.array(list(itertools.product(*[range(r) for r in radix])), dtype=np.int64).reshape(M, K)
     within = np.all(mv_idx <= np.where(counted, bud, np.iinfo(np.int64).max), axis=1)
@@ -173,15 +189,24 @@ def walk(tab: Table, starts) -> np.ndarray | None:
     return tab.configs[path].T.copy()
 
 
+def decides(n_points: int, n_robots: int, horizon: int, max_moves) -> bool:
+    """Whether validation builds the table (``possible``): at most CELLS entries, and WORK
+    entries times joint moves."""
+    entries = horizon * float(n_points) ** n_robots * float(np.prod(budgets(max_moves, horizon)[2]))
+    return cells(n_points, n_robots, horizon, budgets(max_moves, horizon)[2]) <= CELLS and \
+        entries * 5.0**n_robots <= WORK
+
+
 @functools.lru_cache(maxsize=32)
 def possible(nx: int, ny: int, blocked: tuple[int, ...], starts: tuple[int, ...], ends: tuple[int, ...],
              max_moves: tuple[int | None, ...], horizon: int) -> bool | None:
     """Whether some legal joint plan exists (validation's question; points are lattice indices,
-    ends -1 for none), or None where the table would pass CELLS entries. Without ends every
-    robot may stay where it starts: True. Cached: a fleet loaded again is not tabulated again."""
+    ends -1 for none), or None where the table would pass CELLS entries or WORK entries times
+    joint moves. Without ends every robot may stay where it starts: True. Cached: a fleet
+    loaded again is not tabulated again."""
     if all(e < 0 for e in ends):
         return True
-    if cells(nx * ny, len(starts), horizon, budgets(max_moves, horizon)[2]) > CELLS:
+    if not decides(nx * ny, len(starts), horizon, max_moves):
         return None
     mask = np.zeros(nx * ny, dtype=bool)
     mask[list(blocked)] = True
