@@ -186,7 +186,8 @@ def check_together(ck: Checker, width, height, step, horizon, blocked, robots) -
     """Several robots that could each keep their rules alone can still have no joint plan
     (MODEL.md sections 9 and 10): two robots in a corridor cannot pass each other. Decided
     exactly by the table of joint points that can still finish (joint.possible) on fleets
-    small enough for it; larger ones are left to the solvers, which say ``infeasible``."""
+    small enough for it (joint.decides); larger ones pass, and milp, dp and Q-learning prove
+    it themselves (status ``infeasible``, docs/model.md)."""
     if len(robots) < 2 or all(r[1] is None for _, r in robots):
         return  # without an end every robot may stay at its own start
     from voiopt import joint  # numba: only for a fleet with an end
