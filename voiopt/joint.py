@@ -45,10 +45,14 @@ def budgets(max_moves, horizon: int) -> tuple[np.ndarray, np.ndarray, list[int]]
     return b, counted, [int(x) + 2 if c else 1 for x, c in zip(b, counted, strict=True)]
 
 
+def entries(n_points: int, n_robots: int, horizon: int, radix) -> float:
+    """The entries of the alive table: slots x joint points x moves made (``budgets``' radix)."""
+    return horizon * float(n_points) ** n_robots * float(np.prod(radix))
+
+
 def cells(n_points: int, n_robots: int, horizon: int, radix) -> float:
-    """The entries ``table`` fills: its slots x joint points x moves made, and the joint moves."""
-    joint = float(n_points) ** n_robots
-    return max(horizon * joint * float(np.prod(radix)), joint * 5.0**n_robots)
+    """What ``table`` tabulates: the alive table's entries, or the joint moves if more."""
+    return max(entries(n_points, n_robots, horizon, radix), float(n_points) ** n_robots * 5.0**n_robots)
 
 
 @nb.njit(cache=True)
@@ -192,9 +196,9 @@ def walk(tab: Table, starts) -> np.ndarray | None:
 def decides(n_points: int, n_robots: int, horizon: int, max_moves) -> bool:
     """Whether validation builds the table (``possible``): at most CELLS entries, and WORK
     entries times joint moves."""
-    entries = horizon * float(n_points) ** n_robots * float(np.prod(budgets(max_moves, horizon)[2]))
-    return cells(n_points, n_robots, horizon, budgets(max_moves, horizon)[2]) <= CELLS and \
-        entries * 5.0**n_robots <= WORK
+    radix = budgets(max_moves, horizon)[2]
+    return (cells(n_points, n_robots, horizon, radix) <= CELLS
+            and entries(n_points, n_robots, horizon, radix) * 5.0**n_robots <= WORK)
 
 
 @functools.lru_cache(maxsize=32)

@@ -182,11 +182,10 @@ def conflict(points, nxt, up) -> bool:
 def alive_bytes(instance: Instance) -> float:
     """The bytes of the joint mask ``alive`` (0 when no robot has an end or a binding budget)."""
     T = instance.horizon
-    n = lattice_mod.n_points(instance)
     radix = joint.budgets([r.max_moves for r in instance.robots], T)[2]
     if not any(r.end is not None for r in instance.robots) and all(x == 1 for x in radix):
         return 0.0
-    return float(T) * float(n) ** instance.n_robots * float(np.prod(radix))
+    return joint.entries(lattice_mod.n_points(instance), instance.n_robots, T, radix)
 
 
 def _budgets(instance: Instance, lats) -> tuple[np.ndarray, np.ndarray, list[int]]:

@@ -167,8 +167,7 @@ def watched_all(stop: Stop, kernel, calls: list[tuple], threads: int) -> list:
     whatever order they finish in. One halt flag stops them all: a call made after it is up
     returns at once, halted."""
     halt = np.zeros(1, dtype=np.uint8)
-    results: list = [None] * len(calls)
-    done = [False] * len(calls)
+    results: list = [None] * len(calls)  # None until its call returns
     todo = iter(range(len(calls)))
     lock = threading.Lock()
 
@@ -179,7 +178,6 @@ def watched_all(stop: Stop, kernel, calls: list[tuple], threads: int) -> list:
             if i is None:
                 return
             results[i] = kernel(*calls[i], halt)
-            done[i] = True
 
     workers = [threading.Thread(target=work, daemon=True) for _ in range(max(1, min(threads, len(calls))))]
     for w in workers:
@@ -193,7 +191,7 @@ def watched_all(stop: Stop, kernel, calls: list[tuple], threads: int) -> list:
     finally:  # a second Ctrl-C raises here: the kernels must not run on behind it
         if any(w.is_alive() for w in workers):
             halt[0] = 1
-    if not all(done):
+    if any(r is None for r in results):
         raise RuntimeError("dp: a kernel failed in its thread")
     return results
 
