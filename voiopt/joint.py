@@ -19,9 +19,20 @@ import numba as nb
 import numpy as np
 
 from voiopt import _grid, _numba_start
+from voiopt.errors import OptionError
 
 CELLS = 5 * 10**6  # the most joint points x slots (or x joint moves) tabulated by legal_paths (about 1 s)
 WORK = 6 * 10**8  # the most entries x joint moves validation tabulates (about 1 s: up to 5**K moves tried per entry)
+
+
+class NoJointPlan(OptionError):
+    """No legal joint plan: ``proved`` when a search covered every joint move (the fleet has
+    none, and the methods report status ``infeasible``), else the search gave up (a legal plan
+    may still exist)."""
+
+    def __init__(self, message: str, proved: bool = True) -> None:
+        super().__init__(message)
+        self.proved = proved
 
 
 @dataclass(frozen=True, eq=False)

@@ -207,7 +207,7 @@ def test_the_loader_and_exact_legal_paths_agree_with_the_oracle():
         assert oracle.count_legal_plans(d) == 0
         with pytest.raises(voiopt.VoioptError, match="robots: no legal joint plan"):
             from_dict(d)
-        with pytest.raises(fleet_mdp.NoJointPlan):  # past the loader's check, legal_paths proves it too
+        with pytest.raises(joint.NoJointPlan):  # past the loader's check, legal_paths proves it too
             fleet_mdp.legal_paths(undecided(d))
 
 

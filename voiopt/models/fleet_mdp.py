@@ -23,7 +23,6 @@ import numpy as np
 
 from voiopt import joint
 from voiopt import lattice as lattice_mod
-from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.models import mdp as mdp_mod
 from voiopt.simulate import advance
@@ -214,18 +213,13 @@ def legal_paths(instance: Instance) -> np.ndarray | None:
         return None
     paths = joint.walk(_alive_table(instance, lats), [lat.start for lat in lats])
     if paths is None:
-        raise NoJointPlan(_no_joint_plan(instance))
+        raise joint.NoJointPlan(_no_joint_plan(instance))
     return paths
 
 
 def _no_joint_plan(instance: Instance) -> str:
     return (f"robots: no joint plan keeps the rules between robots and every robot's end and max_moves in "
             f"{instance.name} (MODEL.md section 10)")
-
-
-class NoJointPlan(OptionError):
-    """The fleet has no legal joint plan: proven by the table of joint states that can still
-    meet every end and budget (the solvers report status ``infeasible``, as dp and milp do)."""
 
 
 def build(instance: Instance, reward: str = "voi", penalty: float = mdp_mod.IDLE_PENALTY,
@@ -244,7 +238,7 @@ def build(instance: Instance, reward: str = "voi", penalty: float = mdp_mod.IDLE
     fleet = FleetMDP(one, K, starts, budgets, counted, alive, np.array(radix, dtype=np.int64), masked,
                      *_packing(one, K, counted, budgets))
     if not fleet._alive(0, tuple(starts.tolist()), (0,) * K):
-        raise NoJointPlan(_no_joint_plan(instance))
+        raise joint.NoJointPlan(_no_joint_plan(instance))
     for a in (starts, budgets, counted, alive):
         a.setflags(write=False)
     return fleet

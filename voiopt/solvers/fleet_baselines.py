@@ -21,6 +21,7 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt.instance import Instance
+from voiopt.joint import NoJointPlan
 from voiopt.plan import Plan
 from voiopt.result import Result
 from voiopt.simulate import advance
@@ -29,15 +30,6 @@ from voiopt.stop import Stop
 MAX_JOINT_UPLOADS = 4096  # joint upload choices scored exhaustively per slot; above, robot by robot
 MAX_TRIES = 20_000  # joint moves the walker may try before it gives up (about 15 s for greedy)
 MAX_TRIES_STOPPED = 500  # and once the stop rule has fired (then robots only head home)
-
-
-class NoJointPlan(Exception):
-    """The walker found no conflict-free way through the horizon: ``proved`` when it searched
-    every joint move (no legal plan exists), else it gave up after MAX_TRIES."""
-
-    def __init__(self, message: str, proved: bool) -> None:
-        super().__init__(message)
-        self.proved = proved
 
 
 def _assignment(cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -179,10 +171,7 @@ def _legal_paths(instance: Instance, objective: str, stop: Stop) -> np.ndarray |
             raise NoJointPlan("no legal joint plan exists (dp's pass without uploads proved it)", True)
         if out is not None:
             return np.asarray(out.plan[0], dtype=np.int64)
-    try:
-        return fleet_mdp.legal_paths(instance)
-    except fleet_mdp.NoJointPlan as e:
-        raise NoJointPlan(str(e), True) from None
+    return fleet_mdp.legal_paths(instance)
 
 
 def _uploads_along(idx: np.ndarray, state, begin, on_move) -> np.ndarray:

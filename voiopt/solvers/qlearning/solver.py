@@ -9,7 +9,7 @@ import time
 import numpy as np
 from rich.progress import TextColumn
 
-from voiopt import _numba_start
+from voiopt import _numba_start, joint
 from voiopt import lattice as lattice_mod
 from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
@@ -121,7 +121,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     with watch(time_limit, memory_limit) as stop:
         try:
             model = build(instance, reward, penalty, slot_in_state, reward_units)
-        except fleet_mdp.NoJointPlan as e:  # proven: no legal plan to learn
+        except joint.NoJointPlan as e:  # proven: no legal plan to learn
             return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
                                     solver={"note": str(e), "startup_s": startup_s})
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
