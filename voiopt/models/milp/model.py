@@ -95,10 +95,8 @@ class Model:
         FleetColumns.name."""
         st = self.structure
         names = [""] * self.n_cols
-        for t, p in zip(*np.nonzero(st.x_col >= 0), strict=True):
-            names[st.x_col[t, p]] = f"x_t{t}_p{p}"
-        for u in range(st.n_uploads):
-            names[st.up_col[u]] = f"y_i{st.up_sensor[u]}_t{st.up_slot[u]}_p{st.up_point[u]}"
+        for name, c in path_names(st).items():
+            names[c] = name
         for c, t, p in zip(st.stay_col, st.stay_slot, st.stay_point, strict=True):
             names[c] = f"s_t{t}_p{p}"
         if self.levels is not None:
@@ -106,7 +104,7 @@ class Model:
             for e, c in enumerate(self.h_cols):
                 names[c] = f"H_i{lt.sensor[e]}_t{lt.slot[e]}_l{lt.level[e]}"
         for k, c in enumerate(self.z_cols):
-            names[c] = f"z_t{k + 1}" if len(self.z_cols) > 1 else "z"
+            names[c] = worth_name(k, len(self.z_cols))
         if self.fleet is not None:
             self.fleet.name(names, st)
         return names
@@ -229,6 +227,22 @@ class _Triplets:
         m.sum_duplicates()
         m.sort_indices()
         return m
+
+
+def path_names(st: Structure) -> dict[str, int]:
+    """The column of every x and y name, x_t<slot>_p<point> and y_i<sensor>_t<slot>_p<point>:
+    the columns a plan is read back from (import-solution)."""
+    names = {}
+    for t, p in zip(*np.nonzero(st.x_col >= 0), strict=True):
+        names[f"x_t{t}_p{p}"] = int(st.x_col[t, p])
+    for u in range(st.n_uploads):
+        names[f"y_i{st.up_sensor[u]}_t{st.up_slot[u]}_p{st.up_point[u]}"] = int(st.up_col[u])
+    return names
+
+
+def worth_name(k: int, count: int) -> str:
+    """The name of worth column k of ``count``: z_t<slot> per slot (the mean objectives), or z."""
+    return f"z_t{k + 1}" if count > 1 else "z"
 
 
 def new_highs(verbose: bool = False):

@@ -19,21 +19,11 @@ from voiopt import objectives
 from voiopt._files import MAX_JSON_BYTES
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
-from voiopt.models.milp.model import new_highs
+from voiopt.models.milp.model import new_highs, path_names, worth_name
 from voiopt.models.milp.solution import plan_from_columns
-from voiopt.models.uploads import Structure, structure
+from voiopt.models.uploads import structure
 from voiopt.plan import Plan
 from voiopt.result import Result
-
-
-def path_names(st: Structure) -> dict[str, int]:
-    """Column of every x and y name of the instance's model."""
-    names = {}
-    for t, p in zip(*np.nonzero(st.x_col >= 0), strict=True):
-        names[f"x_t{t}_p{p}"] = int(st.x_col[t, p])
-    for u in range(st.n_uploads):
-        names[f"y_i{st.up_sensor[u]}_t{st.up_slot[u]}_p{st.up_point[u]}"] = int(st.up_col[u])
-    return names
 
 
 def model_names(model: str | os.PathLike) -> tuple[set[str], bool]:
@@ -55,8 +45,8 @@ def _check_objective(objective: str, in_model: set[str], maximises: bool, horizo
     (z_t1 .. z_tT), a bottleneck one a single z (a covering problem of the bisection has
     neither), and VoI is maximised, AoI minimised."""
     spec = objectives.get(objective)
-    per_slot = "z_t1" in in_model
-    if not (per_slot or "z" in in_model):
+    per_slot = worth_name(0, 2) in in_model  # z_t1: per-slot worth columns
+    if not (per_slot or worth_name(0, 1) in in_model):
         return  # a covering problem (--covering-level): any plan of it is a plan
     if (per_slot != spec.per_slot and horizon > 1) or maximises != (spec.worth == "voi"):
         kind = ("a mean objective's" if per_slot else "a bottleneck objective's") + (
