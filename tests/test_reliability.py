@@ -280,3 +280,20 @@ def test_an_interrupted_solve_says_where_its_best_plan_went(args, kept):
     assert stderr.splitlines()[-1].endswith(f"the best plan so far is {kept}")
     if args:
         assert json.loads(stdout)["status"] == "interrupted"
+
+
+def test_a_ctrl_c_while_the_temporary_file_is_made_leaves_no_file(tmp_path, monkeypatch):
+    """The temporary file's name is drawn before it is made: an interrupt just after the
+    making (before anything could note the name) still removes it."""
+    from voiopt import _files
+
+    real_open = os.open
+
+    def open_then_interrupt(path, flags, mode=0o777):
+        real_open(path, flags, mode)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(_files.os, "open", open_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        _files.write_json_atomic(tmp_path / "r.json", {"a": 1})
+    assert list(tmp_path.iterdir()) == []

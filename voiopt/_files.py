@@ -7,6 +7,7 @@ import hashlib
 import json
 import os
 import re
+import secrets
 import sys
 import tempfile
 from collections.abc import Sequence
@@ -146,22 +147,23 @@ def read_json(path: str | os.PathLike, error: type[Exception] = InstanceError) -
     return loads_json(text, error, str(p))
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 @contextmanager
 def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str | None = None):
     """Write through a temporary file beside ``path``, renamed over it only when the block
     finishes: a reader sees the old file or the new one, never half of one. The file gets the
-    permissions of a plain open() (0666 less the umask), not mkstemp's 0600."""
+    permissions of a plain open() (0666 less the umask). The temporary file's name is drawn
+    before it is made, so that a Ctrl-C at any moment of the making, too, removes it."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+    tmp = None
     try:
-        os.fchmod(fd, 0o666 & ~_umask())
+        while True:
+            tmp = p.parent / f".{p.name}.{secrets.token_hex(4)}.tmp"
+            try:
+                fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+                break
+            except FileExistsError:
+                continue
         if binary:
             f = os.fdopen(fd, "wb")
         else:
@@ -170,7 +172,8 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
             yield f
         os.replace(tmp, p)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
         raise
 
 
@@ -210,15 +213,35 @@ def safe_name(name: str) -> str:
 def check_output_file(path: str | os.PathLike, what: str = "-o/--output") -> Path:
     """Before any work: the file can be written (its folder exists and is writable, and it is
     not itself a folder); an OptionError naming the path otherwise."""
-    p = Path(path)
+    p = _named(path, what)
     if p.is_dir():
         raise OptionError(f"{what}: {str(p)!r} is a directory; give a file name")
     parent = p.parent
-    if not parent.is_dir():
-        raise OptionError(f"{what}: the folder {str(parent)!r} of {str(p)!r} does not exist")
+    _check_parent(p, what)
     if (p.exists() and not os.access(p, os.W_OK)) or not _can_create_in(parent):
         raise OptionError(f"{what}: {str(p)!r} cannot be written (no permission)")
     return p
+
+
+NAME_MAX = 200  # bytes in an output's name: file systems take 255, and the temporary file adds 14
+
+
+def _named(path: str | os.PathLike, what: str) -> Path:
+    """A path that names something: not empty, its last part at most NAME_MAX bytes long."""
+    if str(path) == "":
+        raise OptionError(f"{what}: give a name, not an empty one")
+    p = Path(path)
+    if len(os.fsencode(p.name)) > NAME_MAX:
+        raise OptionError(f"{what}: the name {p.name[:40]!r}... is longer than {NAME_MAX} bytes")
+    return p
+
+
+def _check_parent(p: Path, what: str) -> None:
+    """The folder a file or folder is to be made in exists (and is a folder)."""
+    if p.parent.exists() and not p.parent.is_dir():
+        raise OptionError(f"{what}: {str(p.parent)!r} in {str(p)!r} is a file, not a folder")
+    if not p.parent.is_dir():
+        raise OptionError(f"{what}: the folder {str(p.parent)!r} of {str(p)!r} does not exist")
 
 
 def _can_create_in(folder: Path) -> bool:
@@ -235,15 +258,14 @@ def _can_create_in(folder: Path) -> bool:
 
 def check_output_dir(path: str | os.PathLike, what: str = "-o/--output") -> Path:
     """Before any work: the folder exists and is writable, or can be made in a writable parent."""
-    p = Path(path)
+    p = _named(path, what)
     if p.exists() and not p.is_dir():
         raise OptionError(f"{what}: {str(p)!r} is a file, not a folder")
     if p.is_dir():
         if not _can_create_in(p):
             raise OptionError(f"{what}: the folder {str(p)!r} cannot be written (no permission)")
         return p
-    if not p.parent.is_dir():
-        raise OptionError(f"{what}: the folder {str(p.parent)!r} of {str(p)!r} does not exist")
+    _check_parent(p, what)
     if not _can_create_in(p.parent):
         raise OptionError(f"{what}: the folder {str(p)!r} cannot be made in {str(p.parent)!r} (no permission)")
     return p
