@@ -85,3 +85,38 @@ def test_a_model_exported_for_another_objective_is_refused(tmp_path, exported):
         else:
             with pytest.raises(voiopt.OptionError, match=rf"^--objective: '{objective}' does not match MODEL"):
                 import_solution(inst, objective, model, solution)
+
+
+def test_a_solution_that_is_not_one_plan_is_refused(capsys, tmp_path):
+    """Every x and y 0 or 1, the robot at one point per slot, one upload per slot from where it
+    stands, every value a number: otherwise one line naming the column or the slot, exit 2,
+    and no result (before, the robot everywhere at once was read as the plan of its first point)."""
+    model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
+    assert run(capsys, "export", str(DOCK), str(model))[0] == 0
+    solve_model_file(model, solution)
+    values = {p[0]: p[1] for p in (ln.split() for ln in solution.read_text().splitlines())
+              if len(p) == 2 and p[0][:2] in ("x_", "y_")}
+    ones = [k for k, v in values.items() if float(v) > 0.5]
+    x1 = next(k for k in ones if k.startswith("x_t1_"))
+    other_x1 = next(k for k in values if k.startswith("x_t1_") and k != x1)
+    y = next(k for k in ones if k.startswith("y_"))
+    slot = y.split("_")[2]
+    elsewhere = next(k for k in values if k.startswith(f"x_{slot}_") and float(values[k]) < 0.5)
+
+    def edited(**change) -> str:
+        body = "".join(f"{k} {v}\n" for k, v in {**values, **change}.items() if v is not None)
+        path = tmp_path / "edited.sol"
+        path.write_text(body)
+        out = tmp_path / "r.json"
+        code, _, err = run(capsys, "import-solution", str(DOCK), str(model), str(path), "-o", str(out))
+        assert code == 2 and not out.exists()
+        return one_line_error(err)
+
+    assert "x_t1_" in edited(**{other_x1: "1"}) and "has 2 points" in edited(**{other_x1: "1"})
+    assert "has 0 points" in edited(**{x1: None})  # a truncated file
+    assert f"{x1}: 0.5 is neither 0 nor 1" in edited(**{x1: "0.5"})
+    assert f"{x1}: must be a number, got 'abc'" in edited(**{x1: "abc"})
+    moved = {k: ("1" if k == elsewhere else "0") for k in values if k.startswith(f"x_{slot}_")}
+    assert "but the robot is not at point" in edited(**moved)
+    code, _, err = run(capsys, "import-solution", str(DOCK), str(tmp_path), str(solution), "-o", str(tmp_path / "r.json"))
+    assert code == 2 and "MODEL" in one_line_error(err) and "a folder, not a file" in err

@@ -17,7 +17,7 @@ import numpy as np
 
 from voiopt import objectives
 from voiopt._files import MAX_JSON_BYTES
-from voiopt.errors import OptionError
+from voiopt.errors import OptionError, PlanError
 from voiopt.instance import Instance
 from voiopt.models.milp.model import new_highs, path_names, worth_name
 from voiopt.models.milp.solution import plan_from_columns
@@ -33,7 +33,7 @@ def model_names(model: str | os.PathLike) -> tuple[set[str], bool]:
     h = new_highs()
     h.silent()
     if not Path(model).is_file():
-        raise OptionError(f"MODEL: {model}: no such file")
+        raise OptionError(f"MODEL: {model}: {'a folder, not a file' if Path(model).is_dir() else 'no such file'}")
     if h.readModel(str(model)) == highspy.HighsStatus.kError:
         raise OptionError(f"MODEL: HiGHS cannot read {str(model)!r} as MPS or LP")
     lp = h.getLp()
@@ -59,7 +59,7 @@ def read_values(solution: str | os.PathLike, names: dict[str, int]) -> dict[str,
     """``name value`` pairs of the known columns in a solution file."""
     p = Path(solution)
     if not p.is_file():
-        raise OptionError(f"SOLUTION: {solution}: no such file")
+        raise OptionError(f"SOLUTION: {solution}: {'a folder, not a file' if p.is_dir() else 'no such file'}")
     if p.stat().st_size > 8 * MAX_JSON_BYTES:
         raise OptionError(f"SOLUTION: {solution}: larger than {8 * MAX_JSON_BYTES} bytes")
     values = {}
@@ -70,11 +70,36 @@ def read_values(solution: str | os.PathLike, names: dict[str, int]) -> dict[str,
                 try:
                     v = float(parts[1])
                 except ValueError:
-                    continue
+                    raise OptionError(f"SOLUTION: {parts[0]}: must be a number, got {parts[1][:40]!r}") from None
                 if not np.isfinite(v):
                     raise OptionError(f"SOLUTION: {parts[0]}: must be a finite number, got {parts[1][:40]!r}")
                 values[parts[0]] = v
     return values
+
+
+INTEGRAL = 1e-6  # how far from 0 or 1 a solver's x or y value may be (its integrality tolerance)
+
+
+def _check_binary(st, values: dict[str, float], col: np.ndarray, solution) -> None:
+    """The x and y values describe one plan: every value 0 or 1 (within INTEGRAL), the robot at
+    exactly one point in every slot, and at most one upload per slot, made from that point."""
+    for k, v in values.items():
+        if min(abs(v), abs(v - 1.0)) > INTEGRAL:
+            raise OptionError(f"SOLUTION: {k}: {v:g} is neither 0 nor 1: not an integer solution")
+    at = np.where(st.x_col >= 0, col[np.maximum(st.x_col, 0)], 0.0) > 0.5  # (T, n)
+    for t in range(st.horizon):
+        if at[t].sum() != 1:
+            raise OptionError(f"SOLUTION: {solution}: slot {t} has {int(at[t].sum())} points with x_t{t}_p<point> = 1, "
+                              "not one (is the file complete?)")
+    up = col[st.up_col] > 0.5
+    for t in range(st.horizon):
+        here = np.flatnonzero(up & (st.up_slot == t))
+        if len(here) > 1:
+            raise OptionError(f"SOLUTION: {solution}: slot {t} has {len(here)} uploads (y = 1); a slot has one at most")
+        for u in here:
+            if not at[t, st.up_point[u]]:
+                raise OptionError(f"SOLUTION: y_i{st.up_sensor[u]}_t{t}_p{st.up_point[u]} = 1, but the robot is not at "
+                                  f"point {st.up_point[u]} in slot {t}")
 
 
 def import_solution(instance: Instance, objective: str, model: str | os.PathLike,
@@ -98,7 +123,11 @@ def import_solution(instance: Instance, objective: str, model: str | os.PathLike
     col = np.zeros(st.n_base)
     for k, v in values.items():
         col[names[k]] = v
+    _check_binary(st, values, col, solution)
     idx, sched = plan_from_columns(st, col)
-    plan = Plan.from_indices(instance, idx, sched)
-    return Result.from_plan(instance, "import", objective, plan, status="feasible", runtime_s=0.0,
-                            solver={"model": str(model), "solution": str(solution), "columns_read": len(values)})
+    try:
+        plan = Plan.from_indices(instance, idx, sched)
+        return Result.from_plan(instance, "import", objective, plan, status="feasible", runtime_s=0.0,
+                                solver={"model": str(model), "solution": str(solution), "columns_read": len(values)})
+    except PlanError as e:  # the solution's plan breaks a rule: name the file
+        raise PlanError(f"SOLUTION: {solution}: its plan breaks a rule: {e}") from None
