@@ -206,3 +206,73 @@ def test_the_default_method_is_dp_and_milp_for_three_robots(capsys, tmp_path):
         r = voiopt.load_result(out)
         assert r.method == method and r.status == "optimal"
     assert voiopt.solve(voiopt.load(three)).method == "milp" and voiopt.solve(voiopt.case_study()).method == "dp"
+
+
+# ------------------------------------------------ options and outputs checked before any work
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["generate", "--seed", "-1"], "argument --seed: must be an integer >= 0, got '-1'"),
+    (["generate", "--count", "0"], "argument --count: must be an integer >= 1, got '0'"),
+    (["solve", CASE, "--method", "qlearning", "--seed", "-2"], "argument --seed: must be an integer >= 0"),
+    (["gap-report", CASE, "--methods", "qlearning", "--episodes", "0", "-o", "{tmp}/r"],
+     "argument --episodes: must be an integer >= 1, got '0'"),
+    (["figures", "--out", "{tmp}/f", "--seed", "-1"], "argument --seed: must be an integer >= 0"),
+    (["bench", "certify", "--work", "{tmp}/w", "--time-limit", "0", "--only", "case-study", "--into", "{tmp}"],
+     "--time-limit: must be a number of seconds > 0, got 0.0"),
+    (["bench", "certify", "--work", "{tmp}/w", "--into", "{tmp}/a-file", "--only", "case-study"],
+     "--into: '{tmp}/a-file' is a file, not a folder"),
+    (["solve", CASE, "--method", "greedy", "-o", ""], "-o/--output: give a name, not an empty one"),
+    (["solve", CASE, "--method", "greedy", "-o", "{tmp}/" + "a" * 300 + ".json"], "is longer than 200 bytes"),
+    (["solve", CASE, "--method", "greedy", "-o", "{tmp}/a-file/r.json"], "a-file' in "),
+    (["generate", "--count", "2", "--out", ""], "--out: give a name, not an empty one"),
+    (["generate", "--count", "200000", "--out", "{tmp}/nets"], "--count: at most 100000 networks in one set"),
+])
+def test_bad_options_and_outputs_are_one_line_before_any_work(capsys, tmp_path, argv, says):
+    (tmp_path / "a-file").write_text("x")
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    try:
+        code = main(argv)
+    except SystemExit as e:  # argparse's own errors
+        code = e.code
+    err = capsys.readouterr().err
+    assert code == 2 and says.replace("{tmp}", str(tmp_path)) in one_line_error(err), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file"]  # nothing made, nothing run
+
+
+def test_a_dask_scheduler_that_is_no_address_is_one_line(capsys, tmp_path):
+    code, _, err = run(capsys, "gap-report", CASE, "--methods", "greedy", "--dask-scheduler", "garbage",
+                       "-o", str(tmp_path / "r"))
+    last = [line for line in err.splitlines() if line.strip()][-1]  # after the progress bar's first line
+    assert code == 2 and "Traceback" not in err and "dask" in last and "garbage" in last
+
+
+def test_generator_seeds_and_counts_are_checked_by_the_api():
+    with pytest.raises(voiopt.VoioptError, match="seed: must be an integer >= 0, got -1"):
+        voiopt.generate(seed=-1)
+    with pytest.raises(voiopt.VoioptError, match="count: must be an integer from 1 to 100000"):
+        voiopt.generate_set(100_001)
+    assert voiopt.generate(seed=3).to_dict() == voiopt.generate(seed=3).to_dict()
+
+
+def test_plot_names_the_file_of_a_result_it_cannot_read(capsys, tmp_path):
+    result = tmp_path / "r.json"
+    assert run(capsys, "solve", CASE, "--method", "greedy", "-o", str(result), "--quiet")[0] == 0
+    d = json.loads(result.read_text())
+    for objective in ("foo", None):
+        result.write_text(json.dumps({**d, "objective": objective}))
+        code, _, err = run(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
+        assert code == 2 and f"{result}: objective: unknown objective" in one_line_error(err)
+    code, _, err = run(capsys, "plot", CASE, "-o", str(tmp_path / "p.png"))
+    assert code == 2 and "this is an instance, not a result" in one_line_error(err)
+    result.write_text("[1, 2]")
+    code, _, err = run(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
+    assert code == 2 and "result: must be a JSON object, got list" in one_line_error(err)
+    assert not (tmp_path / "p.png").exists()
+
+
+def test_bench_export_refuses_a_folder_in_a_file_s_place_before_writing_any(capsys, tmp_path):
+    (tmp_path / "certificates.json").mkdir()
+    code, _, err = run(capsys, "bench", "export", "--out", str(tmp_path))
+    assert code == 2 and "certificates.json' is a directory" in one_line_error(err)
+    assert [p.name for p in tmp_path.iterdir()] == ["certificates.json"]  # no instance written either

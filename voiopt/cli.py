@@ -19,7 +19,7 @@ from voiopt._files import check_output_dir, check_output_file
 from voiopt.cli_bench import add_commands as add_bench_commands
 from voiopt.errors import OptionError, PlanError, VoioptError
 from voiopt.experiments.runner import WorkerDied
-from voiopt.generate import PRESETS, generate_set, write_set
+from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
 from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
@@ -48,6 +48,22 @@ def _count(text: str) -> int:
     if not value.is_integer():
         raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}")
     return int(value)
+
+
+def _seed(text: str) -> int:
+    """A seed: an integer >= 0 (1e3 is accepted)."""
+    value = _count(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
+def _positive(text: str) -> int:
+    """A count of at least one (1e6 is accepted)."""
+    value = _count(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
 
 
 def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
@@ -132,6 +148,8 @@ def cmd_generate(args) -> int:
         print(json.dumps(inst.to_dict(), indent=2))
         return 0
     check_output_dir(args.out, "--out")
+    if args.count > MAX_COUNT:
+        raise OptionError(f"--count: at most {MAX_COUNT} networks in one set, got {args.count}")
     insts = generate_set(args.count, seed=args.seed, preset=args.preset, name=args.name, **kwargs)
     paths = write_set(insts, args.out, overwrite=args.overwrite)
     out.print(f"wrote {len(paths)} instance(s) to {args.out}", markup=False)
@@ -154,7 +172,7 @@ def _solve_options(args, inst_name: str) -> dict:
 
 
 def cmd_solve(args) -> int:
-    if args.output:
+    if args.output is not None:
         check_output_file(args.output)  # before the work, not after it
     inst = instance_mod.load(args.instance)
     result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst.name))
@@ -227,7 +245,10 @@ def cmd_plot(args) -> int:
     check_figure_path(args.output)
     check_output_file(args.output)
     result = voiopt.load_result(args.result)
-    plot_result(result, instance_for(result, args.instance), args.output)
+    try:
+        plot_result(result, instance_for(result, args.instance), args.output)
+    except PlanError as e:  # the result's plan breaks a rule of its instance: name the file
+        raise PlanError(f"{args.result}: {e}") from None
     out.print(f"wrote {args.output}", markup=False)
     return 0
 
@@ -256,14 +277,14 @@ def _add_executor_options(s: argparse.ArgumentParser) -> None:
 
 
 def _add_qlearning_options(s: argparse.ArgumentParser, seeds: bool) -> None:
-    s.add_argument("--episodes", type=_count, default=None, metavar="N",
+    s.add_argument("--episodes", type=_positive, default=None, metavar="N",
                    help="Q-learning episodes R_max; 1e6 is accepted (default 1000000, the paper's)")
     s.add_argument("--reward-units", default=None if not seeds else "bit/s", choices=list(REWARD_UNITS),
                    help="Q-learning reward: V in bit/s as the paper writes it, or V/B; idle penalty 100 either way "
                         "(default bit/s)")
     if seeds:
-        s.add_argument("--seed", type=_count, default=0, metavar="S", help="first seed (default 0)")
-        s.add_argument("--seeds", type=_count, default=3, metavar="K",
+        s.add_argument("--seed", type=_seed, default=0, metavar="S", help="first seed (default 0)")
+        s.add_argument("--seeds", type=_positive, default=3, metavar="K",
                        help="randomised methods run with seeds S .. S+K-1 (default 3)")
 
 
@@ -305,8 +326,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "them at the free points nearest the dock")
     s.add_argument("--dock", action="store_true",
                    help="with --robots: start the robots at the free points nearest robot 0's start")
-    s.add_argument("--seed", type=int, default=0, help="the networks depend on it alone (default 0)")
-    s.add_argument("--count", type=int, default=1, help="how many networks; more than one needs --out (default 1)")
+    s.add_argument("--seed", type=_seed, default=0, help="the networks depend on it alone (default 0)")
+    s.add_argument("--count", type=_positive, default=1, help="how many networks; more than one needs --out (default 1)")
     s.add_argument("--name", default=None,
                    help="name prefix of the instances (default nN-tT-seedS, or factory-nN-tT-seedS)")
     s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
@@ -323,7 +344,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--threads", type=_count, default=None, metavar="K", help="milp: HiGHS threads (default: HiGHS's); dp: chunks of a slot "
                    "expanded at once, the same plan sooner on K cores (default 1)")
     _add_qlearning_options(s, seeds=False)
-    s.add_argument("--seed", type=_count, default=None, metavar="S",
+    s.add_argument("--seed", type=_seed, default=None, metavar="S",
                    help="seed of a randomised method (default 0)")
     s.add_argument("--memory-limit", type=float, default=None, metavar="GB",
                    help=f"stop with the best plan when the method's memory passes this (default {DEFAULT_MEMORY_GB:g})")

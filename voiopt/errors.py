@@ -21,6 +21,17 @@ class MemoryLimitError(OptionError):
     """The work would pass the memory limit before it has any plan to return."""
 
 
+def check_seed(seed) -> None:
+    """A seed, of a generator or a randomised method: an integer >= 0 (numpy's generators take
+    no other)."""
+    try:
+        ok = not isinstance(seed, bool) and seed.__index__() >= 0  # int, numpy's integers
+    except (AttributeError, TypeError):
+        ok = False
+    if not ok:
+        raise OptionError(f"seed: must be an integer >= 0, got {seed!r}")
+
+
 class MissingExtraError(VoioptError):
     """An optional dependency is not installed; the message names the pip command."""
 

@@ -17,7 +17,7 @@ import numpy as np
 from voiopt import _grid
 from voiopt import instance as instance_mod
 from voiopt._places import _xy
-from voiopt.errors import OptionError
+from voiopt.errors import OptionError, check_seed
 from voiopt.instance import (
     LATTICE_TOL,
     Channel,
@@ -213,6 +213,8 @@ def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, see
     on machines and shelves, each within d_th of an aisle point, rho ~ U(0.6, 0.99), T = 100 and
     a budget of 80 moves. With ``robots`` K > 1, the K robots start and end at the free points
     nearest the dock (MODEL.md section 10: no two share a point)."""
+    if not isinstance(seed, np.random.SeedSequence):  # generate_set's networks get one each
+        check_seed(seed)
     if n_sensors is not None and (isinstance(n_sensors, bool) or not isinstance(n_sensors, int) or n_sensors < 1):
         raise OptionError(f"sensors: must be an integer >= 1, got {n_sensors!r}")
     if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 1:

@@ -11,7 +11,7 @@ import numpy as np
 
 from voiopt import _files, fields
 from voiopt import instance as instance_mod
-from voiopt.errors import OptionError, PlanError
+from voiopt.errors import OptionError, PlanError, check_seed
 from voiopt.instance import Channel, Instance, Sensor
 from voiopt.plan import Plan
 
@@ -46,6 +46,8 @@ def generate(
     ``robots`` K > 1 (MODEL.md section 10) adds robots 1..K-1 after that (fields.add_robots):
     distinct starts, uniform or with ``dock`` around robot 0's start, and ends by ``end``."""
     _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi)
+    if not isinstance(seed, np.random.SeedSequence):  # generate_set's networks get one each
+        check_seed(seed)
     fields.check_options(blocked_fraction, end, max_moves, horizon)
     rng = np.random.default_rng(seed)
     channel = channel or Channel()
@@ -72,14 +74,16 @@ def generate(
 
 
 PRESETS = ("factory",)
+MAX_COUNT = 100_000  # networks in one set: they are drawn in memory before any is written
 
 
 def generate_set(count: int, seed: int = 0, preset: str | None = None, **kwargs) -> list[Instance]:
     """``count`` independent networks; network k depends only on (seed, k). ``preset``
     "factory" draws factory floors (fields.factory, which takes n_sensors, horizon and
     max_moves) instead of the paper's networks."""
-    if count < 1:
-        raise OptionError(f"count: must be >= 1, got {count}")
+    if isinstance(count, bool) or not isinstance(count, int | np.integer) or not 1 <= count <= MAX_COUNT:
+        raise OptionError(f"count: must be an integer from 1 to {MAX_COUNT}, got {count!r}")
+    check_seed(seed)
     if preset is not None and preset not in PRESETS:
         raise OptionError(f"preset: must be one of {', '.join(PRESETS)}, got {preset!r}")
     base = kwargs.pop("name", None)

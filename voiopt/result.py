@@ -100,7 +100,12 @@ class Result:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Result:
+        if not isinstance(d, dict):
+            raise VoioptError(f"result: must be a JSON object, got {type(d).__name__}")
+        if "objective" not in d and "sensors" in d:
+            raise VoioptError("result: this is an instance, not a result (voiopt solve -o writes results)")
         try:
+            check_objective(d["objective"])
             return cls(
                 d["instance"], d["method"], d["objective"], d["status"], d["value"], d["bound"],
                 d["gap"], d["runtime_s"], None if d["plan"] is None else Plan.from_dict(d["plan"]),
@@ -123,7 +128,11 @@ class Result:
 
 
 def load_result(path: str | os.PathLike) -> Result:
-    return Result.from_dict(read_json(path, error=VoioptError))
+    d = read_json(path, error=VoioptError)
+    try:
+        return Result.from_dict(d)
+    except VoioptError as e:  # name the file
+        raise VoioptError(f"{path}: {e}") from None
 
 
 def _clean(v: float | None) -> float | None:

@@ -209,7 +209,7 @@ def make_executor(workers: int, dask_scheduler: str | None):
         cluster = None
         try:
             client = Client(dask_scheduler, timeout="10s")
-        except OSError as e:
+        except (OSError, ValueError) as e:  # unreachable, or not an address (ValueError)
             raise OptionError(f"--dask-scheduler: cannot reach {dask_scheduler}: {e}") from None
     try:
         yield client.get_executor()

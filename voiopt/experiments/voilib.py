@@ -20,7 +20,14 @@ from pathlib import Path
 from typing import Any
 
 from voiopt import instance as instance_mod
-from voiopt._files import loads_json, read_json, safe_name, write_json_atomic
+from voiopt._files import (
+    check_output_dir,
+    check_output_file,
+    loads_json,
+    read_json,
+    safe_name,
+    write_json_atomic,
+)
 from voiopt.errors import OptionError, VoioptError
 from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance, show
@@ -158,8 +165,12 @@ def table_rows() -> list[dict[str, Any]]:
 
 def export(out_dir: str | os.PathLike) -> Path:
     """The instances and certificates.json into ``out_dir`` (created)."""
-    out = Path(out_dir)
-    write_set(list(instances().values()), out)
+    out = check_output_dir(out_dir, "--out")
+    lib = list(instances().values())
+    if out.is_dir():  # before writing any: no file to write is a folder there
+        for name in [*(f"{safe_name(inst.name)}.json" for inst in lib), "certificates.json"]:
+            check_output_file(out / name, "--out")
+    write_set(lib, out)
     write_json_atomic(out / "certificates.json", certificates())
     return out
 
@@ -269,10 +280,15 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     and write certificates.json into ``into`` (default: the package's VoI-Lib folder, in a
     source checkout). With ``only``, the other instances' entries of an existing
     certificates.json there are kept (those whose instance is unchanged)."""
-    from voiopt.experiments.runner import method_tasks, run_tasks
+    from voiopt.experiments.runner import check_workers, method_tasks, run_tasks
     from voiopt.result import load_result
+    from voiopt.solvers.base import check_limits
 
-    work = Path(work_dir)
+    check_limits(time_limit, memory_limit)  # before any run: a bad limit would fail every one of them
+    check_workers(workers)
+    work = check_output_dir(work_dir, "--work")
+    if into is not None:
+        check_output_dir(into, "--into")
     work.mkdir(parents=True, exist_ok=True)
     every = lib = instances()
     if only is not None:

@@ -34,9 +34,6 @@ def check_limits(time_limit: float | None, memory_limit: float | None) -> None:
         raise OptionError(f"--memory-limit: must be a number of GB > 0, got {memory_limit!r}")
 
 
-def check_seed(seed: int) -> None:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise OptionError(f"seed: must be an integer >= 0, got {seed!r}")
 
 
 def check_threads(threads: int | None) -> None:

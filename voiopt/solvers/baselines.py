@@ -15,6 +15,7 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import objectives, physics
+from voiopt.errors import check_seed
 from voiopt.instance import Instance
 from voiopt.objectives import check_objective
 from voiopt.plan import Plan
@@ -24,7 +25,6 @@ from voiopt.solvers import fleet_baselines
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     check_limits,
-    check_seed,
     lattice_bytes,
     require_memory,
 )

@@ -11,7 +11,7 @@ from rich.progress import TextColumn
 
 from voiopt import _numba_start, joint
 from voiopt import lattice as lattice_mod
-from voiopt.errors import MemoryLimitError, OptionError
+from voiopt.errors import MemoryLimitError, OptionError, check_seed
 from voiopt.instance import Instance
 from voiopt.models import fleet_mdp
 from voiopt.models import mdp as mdp_mod
@@ -105,7 +105,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
          time_limit: float | None, memory_limit: float, slot_in_state: bool, reward_units: str) -> Result:
     check_objective(objective)
     _check_options(episodes, seed, beta, gamma, q_init, penalty)
-    base.check_seed(seed)
+    check_seed(seed)
     base.check_limits(time_limit, memory_limit)
     mdp_mod.check_reward_units(reward_units)
     if not isinstance(slot_in_state, bool):
