@@ -276,3 +276,13 @@ def test_bench_export_refuses_a_folder_in_a_file_s_place_before_writing_any(caps
     code, _, err = run(capsys, "bench", "export", "--out", str(tmp_path))
     assert code == 2 and "certificates.json' is a directory" in one_line_error(err)
     assert [p.name for p in tmp_path.iterdir()] == ["certificates.json"]  # no instance written either
+
+
+def test_evaluate_says_when_a_result_has_no_plan(capsys, tmp_path):
+    result = tmp_path / "r.json"
+    assert run(capsys, "solve", CASE, "--method", "greedy", "-o", str(result), "--quiet")[0] == 0
+    d = json.loads(result.read_text())
+    del d["plan"]
+    result.write_text(json.dumps(d))
+    code, _, err = run(capsys, "evaluate", CASE, str(result))
+    assert code == 2 and f"{result}: a result without a plan field" in one_line_error(err)

@@ -148,6 +148,8 @@ def load_plan(path: str | os.PathLike, instance_name: str | None = None) -> Plan
     d = read_json(path, error=PlanError)
     if isinstance(d, dict) and "sensors" in d:
         raise PlanError(f"{path}: an instance, not a plan ({{positions, schedule}}) or a result JSON")
+    if isinstance(d, dict) and "objective" in d and "plan" not in d and "positions" not in d and "robots" not in d:
+        raise PlanError(f"{path}: a result without a plan field")
     other = made_for(d)
     if instance_name is not None and other is not None and other != instance_name:
         raise PlanError(f"{path}: a result for instance {show(other)}, not for {show(instance_name)}")
