@@ -79,7 +79,8 @@ def load_instances(paths: Iterable[str | os.PathLike], notes: list[str] | None =
             names[inst.name] = p
             out.append((p, inst))
     if not out:
-        raise OptionError("INSTANCES: no instance given")
+        raise OptionError(f"INSTANCES: no instance among {', '.join(map(str, paths)) or 'nothing'} (an instance "
+                          "JSON has a 'sensors' field)")
     return out
 
 
