@@ -109,13 +109,31 @@ def check_seeds(seeds: int) -> int:
     return count_option(seeds, "--seeds")
 
 
+def check_scheduler(dask_scheduler: str | None) -> None:
+    """Before any work: the optional package is there, and the address is one (resolved, not
+    yet connected to)."""
+    if dask_scheduler is None:
+        return
+    try:
+        from distributed.comm import resolve_address
+    except ImportError:
+        raise MissingExtraError("distributed", "dask") from None
+    if dask_scheduler != "local":
+        try:
+            resolve_address(dask_scheduler)
+        except (OSError, ValueError) as e:  # no such host, or not an address
+            raise OptionError(f"--dask-scheduler: {dask_scheduler!r} is no scheduler address "
+                              f"(tcp://HOST:PORT or 'local'): {e}") from None
+
+
 def run_options(*, time_limit: float | None, memory_limit: float, episodes: int | None, reward_units: str,
-                seeds: int, workers: int) -> dict[str, Any]:
+                seeds: int, workers: int, dask_scheduler: str | None = None) -> dict[str, Any]:
     """Check the options every sweep shares; return those each run receives (one thread each)."""
     check_seeds(seeds)
     check_reward_units(reward_units)
     check_limits(time_limit, memory_limit)
     check_workers(workers)
+    check_scheduler(dask_scheduler)
     return dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
                 threads=1)
 

@@ -280,12 +280,13 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     and write certificates.json into ``into`` (default: the package's VoI-Lib folder, in a
     source checkout). With ``only``, the other instances' entries of an existing
     certificates.json there are kept (those whose instance is unchanged)."""
-    from voiopt.experiments.runner import check_workers, method_tasks, run_tasks
+    from voiopt.experiments.runner import check_scheduler, check_workers, method_tasks, run_tasks
     from voiopt.result import load_result
     from voiopt.solvers.base import check_limits
 
     check_limits(time_limit, memory_limit)  # before any run: a bad limit would fail every one of them
     check_workers(workers)
+    check_scheduler(dask_scheduler)
     work = check_output_dir(work_dir, "--work")
     if into is not None:
         check_output_dir(into, "--into")
