@@ -327,7 +327,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--dock", action="store_true",
                    help="with --robots: start the robots at the free points nearest robot 0's start")
     s.add_argument("--seed", type=_seed, default=0, help="the networks depend on it alone (default 0)")
-    s.add_argument("--count", type=_positive, default=1, help="how many networks; more than one needs --out (default 1)")
+    s.add_argument("--count", type=_positive, default=1, help=f"how many networks, at most {MAX_COUNT}; more than one needs --out (default 1)")
     s.add_argument("--name", default=None,
                    help="name prefix of the instances (default nN-tT-seedS, or factory-nN-tT-seedS)")
     s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
