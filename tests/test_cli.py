@@ -220,14 +220,15 @@ def test_the_default_method_is_dp_and_milp_for_three_robots(capsys, tmp_path):
     (["figures", "--out", "{tmp}/f", "--seed", "-1"], "argument --seed: must be an integer >= 0"),
     (["gap-report", CASE, "--methods", "greedy", "--dask-scheduler", "garbage", "-o", "{tmp}/r"],
      "--dask-scheduler: 'garbage' is no scheduler address"),
-    (["bench", "certify", "--work", "{tmp}/w", "--dask-scheduler", "tcp://nohost", "--into", "{tmp}"],
-     "--dask-scheduler: 'tcp://nohost' is no scheduler address"),
+    (["bench", "certify", "--work", "{tmp}/w", "--dask-scheduler", "tcp://nohost.invalid:8786", "--into", "{tmp}"],
+     "--dask-scheduler: 'tcp://nohost.invalid:8786' is no scheduler address"),  # a name that never resolves
+    (["bench", "certify", "--work", "{tmp}/w/v", "--only", "nosuch"], "--only: 'nosuch' is no VoI-Lib"),
     (["bench", "certify", "--work", "{tmp}/w", "--time-limit", "0", "--only", "case-study", "--into", "{tmp}"],
      "--time-limit: must be a number of seconds > 0, got 0.0"),
     (["bench", "certify", "--work", "{tmp}/w", "--into", "{tmp}/a-file", "--only", "case-study"],
      "--into: '{tmp}/a-file' is a file, not a folder"),
     (["solve", CASE, "--method", "greedy", "-o", ""], "-o/--output: give a name, not an empty one"),
-    (["solve", CASE, "--method", "greedy", "-o", "{tmp}/" + "a" * 300 + ".json"], "is longer than 200 bytes"),
+    (["solve", CASE, "--method", "greedy", "-o", "{tmp}/" + "a" * 237 + ".json"], "is longer than 241 bytes"),
     (["solve", CASE, "--method", "greedy", "-o", "{tmp}/a-file/r.json"], "a-file' in "),
     (["generate", "--count", "2", "--out", ""], "--out: give a name, not an empty one"),
     (["generate", "--count", "200000", "--out", "{tmp}/nets"], "--count: at most 100000 networks in one set"),
@@ -242,6 +243,36 @@ def test_bad_options_and_outputs_are_one_line_before_any_work(capsys, tmp_path, 
     err = capsys.readouterr().err
     assert code == 2 and says.replace("{tmp}", str(tmp_path)) in one_line_error(err), err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file"]  # nothing made, nothing run
+
+
+def test_long_names_and_large_seeds_are_kept(capsys, tmp_path):
+    """An output name that fits beside its temporary file (241 bytes) is written; a seed beyond
+    2**53 is used as written, not rounded through a float."""
+    out = tmp_path / ("a" * 236 + ".json")
+    assert run(capsys, "solve", CASE, "--method", "greedy", "-o", str(out), "--quiet")[0] == 0 and out.exists()
+    code, text, _ = run(capsys, "generate", "--seed", "9007199254740993")
+    assert code == 0 and json.loads(text)["name"] == "n4-t30-seed9007199254740993"
+
+
+def test_nested_output_folders_are_made_where_a_command_makes_them(tmp_path):
+    from voiopt._files import check_output_dir
+
+    assert check_output_dir(tmp_path / "a" / "b", "--work", parents=True) == tmp_path / "a" / "b"
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(voiopt.VoioptError, match="is a file, not a folder"):
+        check_output_dir(tmp_path / "f" / "a" / "b", "--work", parents=True)
+    with pytest.raises(voiopt.VoioptError, match="does not exist"):
+        check_output_dir(tmp_path / "c" / "d", "--out")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f"]  # checked, not made
+
+
+def test_sweeps_check_their_seed_and_episodes_in_the_api_too(tmp_path):
+    from voiopt.experiments.gaps import gap_report
+
+    for bad in (dict(seed=-1), dict(episodes=0)):
+        with pytest.raises(voiopt.VoioptError, match="seed: must be|--episodes: must be"):
+            gap_report([CASE], ["greedy"], "mean-min-voi", tmp_path / "r", **bad)
+    assert not (tmp_path / "r").exists()
 
 
 def test_generator_seeds_and_counts_are_checked_by_the_api():

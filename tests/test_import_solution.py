@@ -118,5 +118,14 @@ def test_a_solution_that_is_not_one_plan_is_refused(capsys, tmp_path):
     assert f"{x1}: must be a number, got 'abc'" in edited(**{x1: "abc"})
     moved = {k: ("1" if k == elsewhere else "0") for k in values if k.startswith(f"x_{slot}_")}
     assert "but the robot is not at point" in edited(**moved)
+    by_slot: dict[str, list[str]] = {}
+    for k in values:
+        if k.startswith("y_"):
+            by_slot.setdefault(k.split("_")[2], []).append(k)
+    two = next(ks[:2] for ks in by_slot.values() if len(ks) >= 2)
+    assert "2 uploads (y = 1); a slot has one at most" in edited(**dict.fromkeys(two, "1"))
+    near = tmp_path / "near.sol"  # within Gurobi's and CPLEX's integrality tolerance
+    near.write_text("".join(f"{k} {'0.99999' if k == x1 else v}\n" for k, v in values.items()))
+    assert run(capsys, "import-solution", str(DOCK), str(model), str(near), "-o", str(tmp_path / "r.json"))[0] == 0
     code, _, err = run(capsys, "import-solution", str(DOCK), str(tmp_path), str(solution), "-o", str(tmp_path / "r.json"))
     assert code == 2 and "MODEL" in one_line_error(err) and "a folder, not a file" in err

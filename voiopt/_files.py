@@ -213,7 +213,7 @@ def safe_name(name: str) -> str:
 def check_output_file(path: str | os.PathLike, what: str = "-o/--output") -> Path:
     """Before any work: the file can be written (its folder exists and is writable, and it is
     not itself a folder); an OptionError naming the path otherwise."""
-    p = _named(path, what)
+    p = _named(path, what, NAME_MAX - TMP_EXTRA)
     if p.is_dir():
         raise OptionError(f"{what}: {str(p)!r} is a directory; give a file name")
     parent = p.parent
@@ -223,16 +223,17 @@ def check_output_file(path: str | os.PathLike, what: str = "-o/--output") -> Pat
     return p
 
 
-NAME_MAX = 200  # bytes in an output's name: file systems take 255, and the temporary file adds 14
+NAME_MAX = 255  # bytes in one name on the usual file systems
+TMP_EXTRA = 14  # bytes atomic_write's temporary file adds to a file's name: "." and ".xxxxxxxx.tmp"
 
 
-def _named(path: str | os.PathLike, what: str) -> Path:
-    """A path that names something: not empty, its last part at most NAME_MAX bytes long."""
+def _named(path: str | os.PathLike, what: str, limit: int = NAME_MAX) -> Path:
+    """A path that names something: not empty, its last part at most ``limit`` bytes long."""
     if str(path) == "":
         raise OptionError(f"{what}: give a name, not an empty one")
     p = Path(path)
-    if len(os.fsencode(p.name)) > NAME_MAX:
-        raise OptionError(f"{what}: the name {p.name[:40]!r}... is longer than {NAME_MAX} bytes")
+    if len(os.fsencode(p.name)) > limit:
+        raise OptionError(f"{what}: the name {p.name[:40]!r}... is longer than {limit} bytes")
     return p
 
 
@@ -256,14 +257,21 @@ def _can_create_in(folder: Path) -> bool:
     return True
 
 
-def check_output_dir(path: str | os.PathLike, what: str = "-o/--output") -> Path:
-    """Before any work: the folder exists and is writable, or can be made in a writable parent."""
+def check_output_dir(path: str | os.PathLike, what: str = "-o/--output", parents: bool = False) -> Path:
+    """Before any work: the folder exists and is writable, or can be made in a writable parent
+    (with ``parents``, in the nearest folder that exists, its missing parents made too)."""
     p = _named(path, what)
     if p.exists() and not p.is_dir():
         raise OptionError(f"{what}: {str(p)!r} is a file, not a folder")
     if p.is_dir():
         if not _can_create_in(p):
             raise OptionError(f"{what}: the folder {str(p)!r} cannot be written (no permission)")
+        return p
+    if parents:
+        up = p.parent
+        while not up.exists() and up != up.parent:
+            up = up.parent
+        check_output_dir(up, what)  # the nearest folder that exists: the rest is made in it
         return p
     _check_parent(p, what)
     if not _can_create_in(p.parent):

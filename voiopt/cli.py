@@ -40,7 +40,12 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _count(text: str) -> int:
-    """An integer option that also takes integer-valued numbers such as 1e6."""
+    """An integer option that also takes integer-valued numbers such as 1e6 (an integer as
+    written is kept exact, however large)."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
     try:
         value = float(text)
     except ValueError:

@@ -176,7 +176,8 @@ def gap_report(
     check_objective(objective)
     methods = check_methods(methods)
     options = run_options(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes,
-                          reward_units=reward_units, seeds=seeds, workers=workers, dask_scheduler=dask_scheduler)
+                          reward_units=reward_units, seeds=seeds, workers=workers, dask_scheduler=dask_scheduler,
+                          seed=seed)
     out = check_output_dir(out_dir)
     notes = [] if notes is None else notes
     instances_found = load_instances(instances, notes)

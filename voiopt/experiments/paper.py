@@ -145,7 +145,8 @@ def make_figures(
     count_option(networks, "--networks")
     count_option(robot_networks, "--robot-networks")
     opts = run_options(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes,
-                       reward_units=reward_units, seeds=seeds, workers=workers, dask_scheduler=dask_scheduler)
+                       reward_units=reward_units, seeds=seeds, workers=workers, dask_scheduler=dask_scheduler,
+                       seed=seed)
     out = check_output_dir(out_dir, "--out")
     check_manifest(out, {"command": "figures", "networks": networks, "robot_networks": robot_networks, "seed": seed,
                          "seeds": seeds, **opts}, "--out")

@@ -13,6 +13,7 @@ import json
 import os
 import signal
 import time
+import warnings
 from collections.abc import Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -23,7 +24,7 @@ from typing import Any
 
 from voiopt import instance as instance_mod
 from voiopt._files import atomic_write, read_json, safe_name, write_json_atomic
-from voiopt.errors import MissingExtraError, OptionError, VoioptError
+from voiopt.errors import MissingExtraError, OptionError, VoioptError, check_seed
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
 from voiopt.plan import made_for
@@ -56,6 +57,7 @@ def load_instances(paths: Iterable[str | os.PathLike], notes: list[str] | None =
     validated before any work. In a folder, a JSON file that is no instance (a plan, a result:
     an object without ``sensors``) is skipped, with a line in ``notes``; a file that tries to
     be one and breaks a rule is an error, as is any file named on its own."""
+    paths = list(paths)
     out: list[tuple[Path, Instance]] = []
     names: dict[str, Path] = {}
     for given in map(Path, paths):
@@ -120,16 +122,22 @@ def check_scheduler(dask_scheduler: str | None) -> None:
         raise MissingExtraError("distributed", "dask") from None
     if dask_scheduler != "local":
         try:
-            resolve_address(dask_scheduler)
-        except (OSError, ValueError) as e:  # no such host, or not an address
+            with warnings.catch_warnings():  # a removed protocol warns over several lines, then fails
+                warnings.simplefilter("ignore")
+                resolve_address(dask_scheduler)
+        except Exception as e:  # no such host (OSError), not an address (ValueError), a protocol not installed
+            why = (str(e).strip().splitlines() or [type(e).__name__])[0]
             raise OptionError(f"--dask-scheduler: {dask_scheduler!r} is no scheduler address "
-                              f"(tcp://HOST:PORT or 'local'): {e}") from None
+                              f"(tcp://HOST:PORT or 'local'): {why}") from None
 
 
 def run_options(*, time_limit: float | None, memory_limit: float, episodes: int | None, reward_units: str,
-                seeds: int, workers: int, dask_scheduler: str | None = None) -> dict[str, Any]:
+                seeds: int, workers: int, dask_scheduler: str | None = None, seed: int = 0) -> dict[str, Any]:
     """Check the options every sweep shares; return those each run receives (one thread each)."""
+    check_seed(seed)
     check_seeds(seeds)
+    if episodes is not None:
+        count_option(episodes, "--episodes")
     check_reward_units(reward_units)
     check_limits(time_limit, memory_limit)
     check_workers(workers)

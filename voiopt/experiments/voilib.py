@@ -165,7 +165,7 @@ def table_rows() -> list[dict[str, Any]]:
 
 def export(out_dir: str | os.PathLike) -> Path:
     """The instances and certificates.json into ``out_dir`` (created)."""
-    out = check_output_dir(out_dir, "--out")
+    out = check_output_dir(out_dir, "--out", parents=True)
     lib = list(instances().values())
     if out.is_dir():  # before writing any: no file to write is a folder there
         for name in [*(f"{safe_name(inst.name)}.json" for inst in lib), "certificates.json"]:
@@ -287,16 +287,17 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     check_limits(time_limit, memory_limit)  # before any run: a bad limit would fail every one of them
     check_workers(workers)
     check_scheduler(dask_scheduler)
-    work = check_output_dir(work_dir, "--work")
-    if into is not None:
-        check_output_dir(into, "--into")
-    work.mkdir(parents=True, exist_ok=True)
     every = lib = instances()
     if only is not None:
         unknown = [n for n in only if n not in every]
         if unknown:
             raise OptionError(f"--only: {unknown[0]!r} is no VoI-Lib {VERSION} instance")
         lib = {n: every[n] for n in only}
+    work = check_output_dir(work_dir, "--work", parents=True)
+    target = check_output_dir(into, "--into", parents=True) if into is not None else Path(str(DATA))
+    if target.is_dir():  # certificates.json can be written there (the package's own folder may be read-only)
+        check_output_file(target / "certificates.json", "--into")
+    work.mkdir(parents=True, exist_ok=True)
     tasks, plan = [], []
     for name, inst in lib.items():
         for objective in OBJECTIVES:
@@ -313,7 +314,6 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
         entry = out["instances"].setdefault(name, {"sha256": instance_hash(lib[name]), "certificates": {}})
         results = [load_result(t.out_path) for t in ts]
         entry["certificates"][objective] = certificate_of(lib[name], objective, results)
-    target = Path(into) if into is not None else Path(str(DATA))
     path = target / "certificates.json"
     if only is not None and path.exists():  # --only updates those entries and keeps the others
         kept = read_json(path).get("instances", {})

@@ -77,7 +77,7 @@ def read_values(solution: str | os.PathLike, names: dict[str, int]) -> dict[str,
     return values
 
 
-INTEGRAL = 1e-6  # how far from 0 or 1 a solver's x or y value may be (its integrality tolerance)
+INTEGRAL = 1e-5  # how far from 0 or 1 an x or y value may be: Gurobi's and CPLEX's default integrality tolerance
 
 
 def _check_binary(st, values: dict[str, float], col: np.ndarray, solution) -> None:
