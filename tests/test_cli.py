@@ -314,3 +314,18 @@ def test_evaluate_says_when_a_result_has_no_plan(capsys, tmp_path):
     result.write_text(json.dumps(d))
     code, _, err = run(capsys, "evaluate", CASE, str(result))
     assert code == 2 and f"{result}: a result without a plan field" in one_line_error(err)
+
+
+def test_bench_export_keeps_an_edited_copy_unless_told(capsys, tmp_path):
+    assert run(capsys, "bench", "export", "--out", str(tmp_path))[0] == 0
+    assert run(capsys, "bench", "export", "--out", str(tmp_path))[0] == 0  # the same files again: fine
+    mine = tmp_path / "case-study.json"
+    edited = json.loads(mine.read_text())
+    edited["horizon"] += 1
+    mine.write_text(json.dumps(edited))
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    code, _, err = run(capsys, "bench", "export", "--out", str(tmp_path))
+    assert code == 2 and "case-study.json already holds another instance" in one_line_error(err)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # nothing written
+    assert run(capsys, "bench", "export", "--out", str(tmp_path), "--overwrite")[0] == 0
+    assert json.loads(mine.read_text())["horizon"] == edited["horizon"] - 1

@@ -37,7 +37,7 @@ def cmd_bench_export(args) -> int:
     from voiopt.experiments import voilib
 
     check_output_dir(args.out, "--out")
-    folder = voilib.export(args.out)
+    folder = voilib.export(args.out, overwrite=args.overwrite)
     out.print(f"wrote {len(voilib.instances())} instances and certificates.json to {folder}", markup=False)
     return 0
 
@@ -87,6 +87,9 @@ def add_commands(sub, command, add_executor_options) -> None:
     s.add_argument("--markdown", action="store_true", help="print a Markdown table")
     s = command(bench, "export", "write the instances and certificates.json to a folder", cmd_bench_export)
     s.add_argument("--out", required=True, metavar="DIR", help="the instances' JSON files and certificates.json go here")
+    s.add_argument("--overwrite", action="store_true",
+                   help="replace files in --out that hold other instances under the library's names (default: refuse, "
+                        "write nothing)")
     s = command(bench, "score", "re-simulate results and print their gaps to the certificates", cmd_bench_score)
     s.add_argument("results", nargs="+", metavar="RESULT",
                    help="result JSON files with instance (or instance_sha256), objective and plan; a value, if given, "

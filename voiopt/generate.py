@@ -111,8 +111,8 @@ def write_set(instances: list[Instance], out_dir: str | os.PathLike, *, overwrit
     if not overwrite:
         for inst, p in zip(instances, paths, strict=True):
             if p.exists() and not _holds(p, inst):
-                raise OptionError(f"--out: {p} already holds another instance; choose another --out or --name, "
-                                  "or --overwrite")
+                raise OptionError(f"--out: {p} already holds another instance; choose another --out, or --overwrite "
+                                  "to replace it")
     for inst, p in zip(instances, paths, strict=True):
         instance_mod.save(inst, p)
     return paths

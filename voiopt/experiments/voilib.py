@@ -163,14 +163,16 @@ def table_rows() -> list[dict[str, Any]]:
     return rows
 
 
-def export(out_dir: str | os.PathLike) -> Path:
-    """The instances and certificates.json into ``out_dir`` (created)."""
+def export(out_dir: str | os.PathLike, overwrite: bool = False) -> Path:
+    """The instances and certificates.json into ``out_dir`` (created). A file there that holds
+    another instance under a library instance's name (a copy someone edited) is not replaced
+    unless ``overwrite``: nothing is written then."""
     out = check_output_dir(out_dir, "--out", parents=True)
     lib = list(instances().values())
     if out.is_dir():  # before writing any: no file to write is a folder there
         for name in [*(f"{safe_name(inst.name)}.json" for inst in lib), "certificates.json"]:
             check_output_file(out / name, "--out")
-    write_set(lib, out)
+    write_set(lib, out, overwrite=overwrite)
     write_json_atomic(out / "certificates.json", certificates())
     return out
 
