@@ -130,22 +130,18 @@ def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_id
 
 
 @nb.njit(cache=True)
-def _alive_backwards(alive, nxt_cfg, moved, counted, budgets, strides, mv_idx):
-    """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: some joint move leads to a joint point
-    and moves made that are alive in the next slot (``_next_alive``). The step from one slot to
-    the one before does not depend on the slot, so once a slot equals the next one, every
-    earlier slot equals it too: they are copied, not computed (a long horizon costs little)."""
+def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, mv_idx):
+    """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: the moves made are ``within`` every
+    budget, and some joint move leads to a joint point and moves made that are alive in the
+    next slot (``_next_alive``). The step from one slot to the one before does not depend on
+    the slot, so once a slot equals the next one, every earlier slot equals it too: they are
+    copied, not computed (a long horizon costs little)."""
     T, C, M = alive.shape
-    K = counted.shape[0]
     for t in range(T - 2, -1, -1):
         same = True
         for c in range(C):
             for m in range(M):
-                within = True
-                for k in range(K):
-                    if counted[k] and mv_idx[m, k] > budgets[k]:
-                        within = False
-                if within and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
+                if within[m] and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
                     alive[t, c, m] = 1
                 same = same and alive[t, c, m] == alive[t + 1, c, m]
         if same:
@@ -178,7 +174,7 @@ def table(neighbors: np.ndarray, ends, max_moves, horizon: int) -> Table:
     alive = np.zeros((T, len(configs), M), dtype=np.uint8)
     alive[T - 1] = at_end[:, None] & within[None, :]
     strides = np.cumprod([1, *radix[::-1]])[:-1][::-1].astype(np.int64)
-    _alive_backwards(alive, nxt_cfg, moved, counted, bud, strides, mv_idx)
+    _alive_backwards(alive, within, nxt_cfg, moved, counted, bud, strides, mv_idx)
     return Table(alive, configs, nxt_cfg, moved, mv_idx, strides, counted, bud, neighbors.shape[0])
 
 

@@ -34,8 +34,6 @@ def check_limits(time_limit: float | None, memory_limit: float | None) -> None:
         raise OptionError(f"--memory-limit: must be a number of GB > 0, got {memory_limit!r}")
 
 
-
-
 def check_threads(threads: int | None) -> None:
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
         raise OptionError(f"--threads: must be an integer >= 1, got {threads!r}")
