@@ -15,10 +15,10 @@ import functools
 import itertools
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from voiopt import _grid, _numba_start
+from voiopt._jit import njit
 from voiopt.errors import OptionError
 
 CELLS = 5 * 10**6  # the most joint points x slots (or x joint moves) tabulated by legal_paths (about 1 s)
@@ -66,7 +66,7 @@ def cells(n_points: int, n_robots: int, horizon: int, radix) -> float:
     return max(entries(n_points, n_robots, horizon, radix), float(n_points) ** n_robots * 5.0**n_robots)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _joint_moves(neighbors, K):
     """(configs, next config, moved) of every joint move (5**K, robot 0's move most
     significant) from every joint point (n**K, robot 0's point most significant); next config
@@ -108,7 +108,7 @@ def _joint_moves(neighbors, K):
     return configs, nxt_cfg, moved
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx):
     """The first joint move from joint point ``c`` with moves made ``m`` in slot t that leads
     to a joint point and moves made alive in slot t + 1, no counted robot passing its budget:
@@ -129,7 +129,7 @@ def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_id
     return -1, -1
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, mv_idx):
     """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: the moves made are ``within`` every
     budget, and some joint move leads to a joint point and moves made that are alive in the

@@ -12,7 +12,8 @@ tighter than the per-sensor relaxation (``best_rank``) that _dp_core applies to 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from voiopt._jit import njit
 
 FAR = 1 << 30  # moves between two sensors' ranges when one has no point in range (never served)
 

@@ -24,8 +24,8 @@ Everything here works in "maximise" form on integer per-sensor ranks:
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from voiopt._jit import njit
 from voiopt.solvers._dp_bounds import distinct_ages_bound, pair_bound, tour_bound
 
 SUM, MIN = 0, 1

@@ -12,8 +12,8 @@ least as well (docs/dp.md, "Several robots").
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from voiopt._jit import njit
 from voiopt.solvers._dp_core import SUM, _combine, _ranks_geq
 
 

@@ -11,9 +11,9 @@ the tests require the same table and plan bit for bit.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
+from voiopt._jit import njit
 from voiopt.models import fleet_mdp
 from voiopt.solvers.qlearning._kernels import _slot_reward
 from voiopt.solvers.qlearning._qtable import _ARG_BITS, QTable, _find, _insert, room_for_episode
@@ -22,7 +22,7 @@ from voiopt.solvers.qlearning._rng import _GOLDEN, _S11, _TWO_M53, _mix
 FLEET_SLOTS = 1 << 10  # the first hash table of a fleet: joint rows are long, so start small
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _joint_count(points, n_actions):
     J = 1
     for k in range(points.shape[0]):
@@ -30,7 +30,7 @@ def _joint_count(points, n_actions):
     return J
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _split(j, points, n_actions, action_upload, action_next, nxt, up):
     """Robot by robot, the next point and the upload of joint action j (robot 0 most significant)."""
     for k in range(points.shape[0] - 1, -1, -1):
@@ -41,7 +41,7 @@ def _split(j, points, n_actions, action_upload, action_next, nxt, up):
         up[k] = action_upload[points[k], a]
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _legal(points, moves, t, horizon, n_actions, action_upload, action_next, masked, alive, radix, counted,
            budgets, out, nxt, up):
     """Write the legal joint actions of slot t, ascending, to out; return how many."""
@@ -74,7 +74,7 @@ def _legal(points, moves, t, horizon, n_actions, action_upload, action_next, mas
     return count
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _key(points, aoi, qidx, slot, moves, counted, field_word, field_shift, key):
     """Pack the state's fields (points, then A_i and q_i, the slot, the counted moves) into key."""
     key[:] = 0
@@ -95,7 +95,7 @@ def _key(points, aoi, qidx, slot, moves, counted, field_word, field_shift, key):
             f += 1
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _first_max(pool, row, legal, n_legal):
     """(the first legal joint action of maximal Q, its Q) in the row at pool[row]."""
     best_k = legal[0]
@@ -107,7 +107,7 @@ def _first_max(pool, row, legal, n_legal):
     return best_k, best
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _advance(points, moves, aoi, qidx, nxt, up, counted):
     """One slot of section 10 in place; returns how many robots upload nothing."""
     idle = 0
@@ -125,7 +125,7 @@ def _advance(points, moves, aoi, qidx, nxt, up, counted):
     return idle
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
            starts, initial_aoi, n_actions, action_upload, action_next, voi_reward, field_word, field_shift,
            table, tablef, pool, counts, rng, masked, alive, radix, counted, budgets, max_joint):
@@ -197,7 +197,7 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
     return n_episodes
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _rollout(horizon, slot_in_state, starts, initial_aoi, n_actions, action_upload, action_next, field_word,
              field_shift, table, pool, masked, alive, radix, counted, budgets, max_joint):
     """The greedy plan: the first maximal legal joint action (the first legal one if unseen)."""

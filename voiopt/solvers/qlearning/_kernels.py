@@ -8,9 +8,9 @@ step, not rebuilt.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
+from voiopt._jit import njit
 from voiopt.models import mdp as mdp_mod
 from voiopt.solvers.qlearning._qtable import (
     _ARG_BITS,
@@ -25,7 +25,7 @@ from voiopt.solvers.qlearning._qtable import (
 from voiopt.solvers.qlearning._rng import _GOLDEN, _S11, _TWO_M53, _mix
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _set_field(k0, key, f, value, field_word, field_shift, clear):
     """Set packed field f to value in the key (k0 is its first word, kept in a register);
     returns the new first word."""
@@ -37,7 +37,7 @@ def _set_field(k0, key, f, value, field_word, field_shift, clear):
     return k0
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _slot_reward(aoi, qidx, voi_reward, aoi_reward):
     """min_i V_i(t+1), or -max_i A_i(t+1) with the AoI reward, before any idle penalty."""
     N = aoi.shape[0]
@@ -55,7 +55,7 @@ def _slot_reward(aoi, qidx, voi_reward, aoi_reward):
     return r
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _feasible(p, k, t, moves, horizon, action_next, to_end, budget):
     """Action k at p in slot t leaves a way to end within the slots and moves left (MODEL.md
     section 9); every action is feasible in the last slot."""
@@ -66,7 +66,7 @@ def _feasible(p, k, t, moves, horizon, action_next, to_end, budget):
     return used <= budget and to_end[nxt] <= min(horizon - 2 - t, budget - used)
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _masked_best(pool, row, p, t, moves, n, horizon, action_next, to_end, budget):
     """(first feasible action of maximal Q-value, its value) in the Q row starting at pool[row]."""
     best_k = -1
@@ -78,7 +78,7 @@ def _masked_best(pool, row, p, t, moves, n, horizon, action_next, to_end, budget
     return best_k, best
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _masked_draw(x, p, t, moves, n, horizon, action_next, to_end, budget):
     """The action at uniform x in [0, 1) among the feasible ones, in action order."""
     nf = 0
@@ -94,7 +94,7 @@ def _masked_draw(x, p, t, moves, n, horizon, action_next, to_end, budget):
     return -1
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _train(
     n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
     start, initial_aoi, n_actions, action_upload, action_next, voi_reward,
@@ -231,7 +231,7 @@ def _train(
     return n_episodes
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_upload, action_next,
              field_word, field_shift, table, pool, masked, to_end, budget):
     """The greedy plan of the table: first maximal action in each state (action 0 if unseen);

@@ -9,9 +9,9 @@ probes, so its critical path is one hash probe.
 
 from __future__ import annotations
 
-import numba as nb
 import numpy as np
 
+from voiopt._jit import njit
 from voiopt.errors import OptionError
 from voiopt.models import mdp as mdp_mod
 from voiopt.solvers.qlearning._rng import _mix
@@ -31,7 +31,7 @@ _ARG_MASK = np.uint64((1 << 16) - 1)
 MAX_ACTIONS = 1 << 16
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def room_for_episode(n_states, used, horizon, row, table, pool):
     """Whether one more episode fits without growing: at most horizon + 1 new states keep the
     table within MAX_LOAD, and their Q rows (at most ``row`` values each) fit the pool. The
@@ -39,7 +39,7 @@ def room_for_episode(n_states, used, horizon, row, table, pool):
     return n_states + horizon + 1 <= MAX_LOAD * table.shape[0] and used + (horizon + 1) * row <= pool.shape[0]
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _encode(p, aoi, qidx, slot, moves, field_word, field_shift, key):
     key[:] = 0
     key[field_word[0]] |= np.uint64(p) << np.uint64(field_shift[0])
@@ -53,7 +53,7 @@ def _encode(p, aoi, qidx, slot, moves, field_word, field_shift, key):
         key[field_word[2 * N + 2]] |= np.uint64(moves) << np.uint64(field_shift[2 * N + 2])
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _find(k0, key, table):
     """(slot, found): where the key is, or the empty slot where it would go. The key's first
     word is k0 (a scalar, so that the common one-word key stays in a register); key[0] is
@@ -78,13 +78,13 @@ def _find(k0, key, table):
         s = (s + 1) & mask
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _greedy(table, s):
     """The first action of maximal Q-value in slot s."""
     return np.int64(table[s, table.shape[1] - 2] & _ARG_MASK)
 
 
-@nb.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _insert(table, tablef, s, k0, key, pool, used, n, q_init):
     """Store the key (k0, key[1:]) in empty slot s with n fresh Q-values at pool[used:]."""
     W = key.shape[0]
@@ -97,7 +97,7 @@ def _insert(table, tablef, s, k0, key, pool, used, n, q_init):
         pool[used + j] = q_init
 
 
-@nb.njit(cache=True)
+@njit(cache=True)
 def _rehash(old, table):
     """Insert every entry of old into the empty, larger table (whole slots, word by word)."""
     W = table.shape[1] - 2

@@ -1,0 +1,82 @@
+"""numba's disk cache of voiopt's kernels is stamped with every kernel module (voiopt/_jit.py):
+a kernel that inlines a kernel of another module is recompiled when only that module changes,
+and loaded from the cache when nothing changed."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+from voiopt import _jit
+from voiopt.solvers import _dp_core
+
+PACKAGE = Path(_jit.__file__).resolve().parent
+
+RUN = """
+import sys
+from pathlib import Path
+from voiopt import _jit
+_jit.ROOT = Path(sys.argv[1]).resolve()
+_jit.KERNEL_MODULES = ("callee.py", "caller.py")
+sys.path.insert(0, sys.argv[1])
+import caller
+print(caller.run(1))
+"""
+
+CALLER = """
+from callee import step
+from voiopt._jit import njit
+
+@njit(cache=True)
+def run(x):
+    return step(x)
+"""
+
+CALLEE = """
+from voiopt._jit import njit
+
+@njit(cache=True, inline="always")
+def step(x):
+    return x + {}
+"""
+
+
+def test_every_module_that_defines_kernels_is_stamped_and_takes_njit_from_jit():
+    defines = set()
+    for path in PACKAGE.rglob("*.py"):
+        name = path.relative_to(PACKAGE).as_posix()
+        text = path.read_text()
+        if name in ("_jit.py", "_numba_start.py"):  # _numba_start compiles one trivial kernel to start numba
+            continue
+        if re.search(r"^\s*@njit\(", text, re.M):
+            defines.add(name)
+        assert not re.search(r"^\s*(import numba|from numba\b)", text, re.M), f"{name} imports numba itself"
+    assert defines == set(_jit.KERNEL_MODULES)
+    assert isinstance(_dp_core.expand._cache._impl._locator, _jit._Stamped)
+
+
+def _run(folder: Path) -> tuple[str, str]:
+    out = subprocess.run([sys.executable, "-c", RUN, str(folder)], capture_output=True, text=True, check=True,
+                         timeout=300, env={**_environ(), "NUMBA_DEBUG_CACHE": "1"})
+    return out.stdout.splitlines()[-1], out.stdout
+
+
+def _environ() -> dict:
+    import os
+
+    return {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+
+
+def test_editing_only_the_inlined_module_recompiles_its_caller(tmp_path):
+    (tmp_path / "caller.py").write_text(textwrap.dedent(CALLER))
+    (tmp_path / "callee.py").write_text(textwrap.dedent(CALLEE.format(1)))
+    value, _ = _run(tmp_path)
+    assert value == "2"
+    value, log = _run(tmp_path)  # nothing changed: the caller's machine code comes from the cache
+    assert value == "2" and "data loaded from" in log and "caller.run" in log
+    (tmp_path / "callee.py").write_text(textwrap.dedent(CALLEE.format(5)))  # caller.py is untouched
+    value, _ = _run(tmp_path)
+    assert value == "6"
