@@ -101,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-pair", action="store_true", help="no pairwise travel bound")
     ap.add_argument("--no-tour", action="store_true", help="no tour bound")
     ap.add_argument("--no-subsets", action="store_true", help="no subset relaxation")
+    ap.add_argument("--no-patterns", action="store_true", help="no pattern database in the bounded pass")
     ap.add_argument("--no-fast-pass", action="store_true", help="compute the incumbents before the first pass")
     ap.add_argument("--threads", type=int, default=1, help="dp's threads (chunks of a slot expanded at once)")
     ap.add_argument("--verbose", "-v", action="store_true", help="one line per network")
@@ -109,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     options = dict(beam=args.beam, greedy=not args.no_greedy, collapse=not args.no_collapse,
                    bounding=not args.no_bounding, tdma=not args.no_tdma,
                    pair_bound=not args.no_pair, tour_bound=not args.no_tour,
-                   subsets=not args.no_subsets, threads=args.threads)
+                   subsets=not args.no_subsets, patterns=not args.no_patterns, threads=args.threads)
     if args.no_fast_pass:
         options["fast_budget"] = 0
     settings = [s for s in args.settings.split(",") if s]

@@ -27,6 +27,7 @@ KERNEL_MODULES = (  # every module of the package that defines kernels (tests/te
     "joint.py",
     "solvers/_dp_bounds.py",
     "solvers/_dp_core.py",
+    "solvers/_dp_pattern.py",
     "solvers/_fleet_dp_core.py",
     "solvers/qlearning/_fleet.py",
     "solvers/qlearning/_kernels.py",

@@ -155,4 +155,71 @@ def test_the_subsets_certify_twelve_sensors_where_the_full_search_alone_does_not
     assert [len(run["sensors"]) for run in runs] == list(range(_dp_subsets.FIRST, _dp_subsets.FIRST + len(runs)))
     assert all(set(a["sensors"]) < set(b["sensors"]) for a, b in zip(runs, runs[1:], strict=False))
     assert min(run["bound"] for run in runs) == pytest.approx(r.solver["subset_bound"], rel=1e-12)
-    assert r.solver["labels"] == sum(p["labels"] for p in r.solver["passes"].values()) + sum(run["labels"] for run in runs)
+    assert r.solver["labels"] == sum(p["labels"] for p in r.solver["passes"].values()) + sum(
+        run["labels"] for run in runs + r.solver.get("patterns", []))
+    for limit in (3, 6):  # stopped in the subsets, the pattern's pass or the bounded pass: still a bound
+        cut = dp.solve(inst, "mean-min-voi", time_limit=limit)
+        assert cut.status in ("time_limit", "optimal")
+        assert cut.bound >= r.value - RTOL * r.value and cut.value <= r.value + RTOL * r.value
+
+
+# ---------------------------------------------------------------- the pattern databases
+
+
+def _moves_left(inst: voiopt.Instance, tab, plan) -> list[int]:
+    """The moves the plan's label may still make in every slot, as dp counts them."""
+    moved, out = 0, []
+    for t, here in enumerate(plan.positions):
+        moved += t > 0 and here != plan.positions[t - 1]
+        out.append(tab.budget - moved if t == 0 else min(tab.budget - moved, inst.horizon - 1 - t))
+    return out
+
+
+@pytest.mark.parametrize("objective", ["mean-min-voi", "mean-max-aoi"])
+def test_a_pattern_bound_is_at_least_the_optimum_along_an_optimal_plan(objective):
+    """For every subset S of 1 .. N-1 sensors and two thresholds below the optimum (just below,
+    and far below), the pattern database of S bounds every label of an optimal plan by at least
+    the optimum: never drops it, never cuts it below. It must also be tighter than all the slot
+    bounds somewhere, or this would not test it."""
+    from itertools import combinations
+
+    from voiopt.solvers import _dp_pattern
+    from voiopt.stop import Stop
+
+    stop, tighter, checked = Stop(), 0, 0
+    for inst in [inst for inst in CASES if inst.n_sensors >= 2]:
+        opt = _optimum(inst, objective)
+        r = dp.solve(inst, objective)
+        assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
+        tab = dp._pattern_tables(inst, objective)
+        target = opt * tab.to_internal
+        labels = _labels_along(inst, tab, r.plan)
+        left = _moves_left(inst, tab, r.plan)
+        for z in (target - 1e-9 * max(abs(target), 1.0), target - 0.5 * abs(target) - 1.0):
+            for m in range(1, inst.n_sensors):
+                for keep in combinations(range(inst.n_sensors), m):
+                    pattern, _ = _dp_pattern.build(inst, objective, list(keep), tab, z, stop, 1, dp.search,
+                                                   lambda sub: dp._pattern_tables(sub, objective))
+                    assert pattern is not None
+                    for t, q, ranks, acc in labels[1:]:
+                        b = pattern.bound(stop, t, ranks[None, :].copy(), np.array([acc]), np.array([q], dtype=np.int32),
+                                          np.array([left[t]], dtype=np.int16), np.array([np.inf]), tab.W.shape[1] - 1)[0]
+                        assert b >= target - RTOL * max(abs(target), 1e-300), (inst.name, keep, t, b, target)
+                        tighter += b < _bound(tab, t, q, ranks, acc, tab.pair, tab.steps) - RTOL * abs(target)
+                        checked += 1
+    assert checked > 1000 and tighter > 0, (checked, tighter)
+
+
+def test_dp_through_the_pattern_databases_equals_the_brute_force(monkeypatch):
+    """fast_budget=1 and the subsets from 3 sensors send every network of 3 or more down the
+    path of large ones; patterns from 2 sensors make each of them build a pattern database for
+    its bounded pass (first above the midpoint, then from the incumbent)."""
+    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    monkeypatch.setattr(dp, "PATTERN_SENSORS", 2)
+    built = 0
+    for inst in CASES:
+        r = dp.solve(inst, "mean-min-voi", fast_budget=1)
+        opt = _optimum(inst, "mean-min-voi")
+        assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
+        built += sum(run["built"] for run in r.solver.get("patterns", []))
+    assert built >= 5, built

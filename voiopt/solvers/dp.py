@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
-from voiopt.solvers import _dp_subsets
+from voiopt.solvers import _dp_pattern, _dp_subsets
 from voiopt.solvers._dp_shared import (
     CHUNK_WORK,
     PAIR_TABLE_BYTES,
@@ -39,6 +40,7 @@ __all__ = ["CHUNK_WORK", "PAIR_TABLE_BYTES", "Tables", "build_tables", "table_by
 DEFAULT_BEAM = 16
 QUICK_BEAM = 2  # labels per point of the beam pass that gives the first incumbent
 FAST_BUDGET = 50_000  # labels of the first, unbounded pass before incumbents are computed
+PATTERN_SENSORS = 3  # the bounded pass's pattern database: the first subset solved with this many sensors or more
 
 
 @dataclass
@@ -73,12 +75,15 @@ def _chunks(work: np.ndarray, threads: int) -> list[tuple[int, int]]:
 
 def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = True, bounding: bool = True,
            tdma: bool = True, stop: Stop | None = None, label_budget: int | None = None,
-           progress: bool = False, threads: int = 1) -> SearchOutcome:
+           progress: bool = False, threads: int = 1, record: list | None = None,
+           patterns: tuple = ()) -> SearchOutcome:
     """One forward pass. ``beam`` > 0 keeps only that many labels per point (a heuristic).
     It stops early, incomplete, when the stop rule says so (time, memory of its labels,
     Ctrl-C) or after more than ``label_budget`` labels. A slot's target points are expanded in
     chunks, ``threads`` chunks at a time: they are independent, so the labels are the same
-    whatever ``threads`` is."""
+    whatever ``threads`` is. ``record`` (a list) receives each slot's expanded labels as
+    (ranks, acc, moves left, points, offsets by point), the last slot's those that beat the
+    incumbent; ``patterns`` (_dp_pattern.Pattern) tighten each new layer's bounds."""
     stop = stop or Stop()
     from voiopt.solvers import _dp_core as core
 
@@ -112,6 +117,9 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                 work += np.where(nb >= 0, per_point[np.maximum(nb, 0)], 0)
             parts = []
             l_ranks, l_acc, l_ub, l_left = ranks[idx], acc[idx], ub[idx], left[idx]
+            if record is not None:
+                record.append((l_ranks, l_acc, l_left, pos[idx], off))
+                stored += l_ranks.nbytes + l_acc.nbytes + l_left.nbytes + 4 * len(idx) + off.nbytes
             chunks = _chunks(work, threads)
             stopped = False
             for b in range(0, len(chunks), threads):  # memory and labels are checked between batches
@@ -143,6 +151,8 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             layer_bytes = new_ranks.nbytes + acc.nbytes + new_ub.nbytes + left.nbytes
             peak_bytes = max(peak_bytes, stored + layer_bytes + ranks.nbytes)
             ranks, ub = new_ranks, new_ub
+            for pattern in patterns:
+                ub = pattern.bound(stop, t + 1, ranks, acc, pos, left, ub, tab.W.shape[1] - 1)
             labels += len(acc)
             peak_layer = max(peak_layer, len(acc))
             bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels{_progress_bound(tab, inc, ub)}")
@@ -152,6 +162,10 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             if t + 1 < T - 1 and stopped:
                 return _incomplete(ub, ub > inc, labels, generated, peak_layer, peak_bytes, t + 1, stopped)
         keep = np.flatnonzero(ub > inc)
+        if record is not None:
+            last = np.zeros(n + 1, dtype=np.int64)
+            np.add.at(last, pos[keep].astype(np.int64) + 1, 1)
+            record.append((ranks[keep], acc[keep], left[keep], pos[keep], np.cumsum(last)))
         value, l, u = core.finish(tab.mode, T - 1, ranks[keep], acc[keep], pos[keep], tab.up_rank,
                                   tab.in_range_list, tab.in_range_count, tab.W)
         bar.update(task, advance=1)
@@ -237,7 +251,7 @@ def solve(
     warm_start: Plan | None = None,
     beam: int = DEFAULT_BEAM,
     greedy: bool = True, collapse: bool = True, bounding: bool = True, tdma: bool = True, pair_bound: bool = True,
-    tour_bound: bool = True, subsets: bool = True,
+    tour_bound: bool = True, subsets: bool = True, patterns: bool = True,
     fast_budget: int = FAST_BUDGET,
     quick_beam: int = QUICK_BEAM,
     threads: int = 1,
@@ -256,7 +270,7 @@ def solve(
 
         one_robot = dict(greedy=(greedy, True), collapse=(collapse, True), tdma=(tdma, True),
                          pair_bound=(pair_bound, True), tour_bound=(tour_bound, True),
-                         subsets=(subsets, True), fast_budget=(fast_budget, FAST_BUDGET),
+                         subsets=(subsets, True), patterns=(patterns, True), fast_budget=(fast_budget, FAST_BUDGET),
                          quick_beam=(quick_beam, QUICK_BEAM), threads=(threads, 1))
         for key, (given, default) in one_robot.items():
             if given != default:
@@ -273,13 +287,14 @@ def solve(
     with watch(time_limit, memory_limit) as stop:
         return _solve(instance, objective, stop, startup_s, warm_start=warm_start, beam=beam, greedy=greedy,
                       collapse=collapse, bounding=bounding, tdma=tdma, pair_bound=pair_bound,
-                      tour_bound=tour_bound, subsets=subsets, fast_budget=fast_budget, quick_beam=quick_beam,
+                      tour_bound=tour_bound, subsets=subsets, patterns=patterns, fast_budget=fast_budget,
+                      quick_beam=quick_beam,
                       progress=progress, threads=int(threads))
 
 
 def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, warm_start, beam, greedy,
-           collapse, bounding, tdma, pair_bound, tour_bound, subsets, fast_budget, quick_beam, progress,
-           threads) -> Result:
+           collapse, bounding, tdma, pair_bound, tour_bound, subsets, patterns, fast_budget, quick_beam,
+           progress, threads) -> Result:
     tab = build_tables(instance, objective)
     if tour_bound and tdma and objectives.get(objective).per_slot:  # the bottleneck ones: slower, no tighter (docs/dp.md)
         tab.with_tour_bound()
@@ -311,6 +326,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
             offer(Plan.from_indices(instance, *b.plan), f"beam {width}")
 
     relaxed, subset_runs = np.inf, []  # the subsets' bound (internal units) and their records, if they ran
+    pattern_runs: list[dict] = []
     if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
         beam_pass(quick_beam)
     # one thread: the label budget is checked after each chunk, and this pass is short
@@ -334,8 +350,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
             relaxed, subset_runs = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
                                         solve_subset, progress)
         if out.stopped == LABEL_BUDGET and not _dp_subsets.reaches(best_value, relaxed):
-            out = search(tab, inc(), progress=progress, **limits)
-            passes.append(("bounded", out))
+            out, relaxed = _bounded(instance, objective, tab, stop, subset_runs if patterns else [], inc, relaxed,
+                                    offer, passes, pattern_runs, progress, limits)
     if out.plan is not None:
         plan = Plan.from_indices(instance, *out.plan)
         found = _internal(tab, simulate(instance, plan).metrics[objective])
@@ -358,11 +374,12 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         "passes": {name: dict(labels=p.labels, children_generated=p.generated, peak_layer_labels=p.peak_layer,
                               slots_done=p.slots_done, complete=p.complete)
                    for name, p in passes},
-        "labels": sum(p.labels for _, p in passes) + sum(r["labels"] for r in subset_runs),
+        "labels": sum(p.labels for _, p in passes) + sum(r["labels"] for r in subset_runs + pattern_runs),
         "peak_label_bytes": max(p.peak_bytes for _, p in passes),
         "incumbents": incumbents,
         "options": {"beam": beam, "greedy": greedy, "collapse": collapse, "bounding": bounding, "tdma": tdma,
                     "pair_bound": tab.pair.shape[0] > 0, "tour_bound": tab.steps.shape[0] > 0, "subsets": subsets,
+                    "patterns": patterns,
                     "fast_budget": fast_budget, "time_limit": stop.time_limit, "memory_limit": stop.memory_limit,
                     "threads": threads},
     }
@@ -371,10 +388,60 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         solver["subset_bound"] = _external(tab, relaxed)
     if subset_runs:
         solver["subsets"] = subset_runs
+    if pattern_runs:
+        solver["patterns"] = pattern_runs
     if status != "optimal":
         solver["stopped"] = stop.describe()
     return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=_external(tab, bound_internal),
                             runtime_s=stop.elapsed(), solver=solver)
+
+
+def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset_runs: list[dict], inc, relaxed: float,
+             offer, passes: list, pattern_runs: list, progress: bool, limits: dict) -> tuple[SearchOutcome, float]:
+    """The bounded pass, with the pattern database (``_dp_pattern``) of the first subset of at
+    least PATTERN_SENSORS sensors that the subsets solved, if any. While the subsets' bound is
+    above the incumbent, a first pass searches only above the midpoint z between them: it finds
+    the optimum if that is above z (a pass is exact above its threshold) or proves the optimum
+    at most z, and then the last pass starts from the incumbent. Returns the last pass and the
+    bound proven (internal units); ``pattern_runs`` receives a record of each pattern built."""
+    sensors = next((r["sensors"] for r in subset_runs
+                    if r["status"] == "optimal" and len(r["sensors"]) >= PATTERN_SENSORS), None)
+    z = inc()
+    if sensors is not None and np.isfinite(relaxed) and relaxed > z:
+        z += (relaxed - z) / 2
+    while True:
+        patterns: tuple = ()
+        if sensors is not None:
+            t0 = time.perf_counter()
+            pattern, own = _dp_pattern.build(instance, objective, sensors, tab, z, stop, limits["threads"], search,
+                                             partial(_pattern_tables, objective=objective))
+            if own is not None and own.plan is not None:  # a plan of the subset above z is one of the whole
+                offer(_subset_plan(instance, own.plan, sensors), f"pattern of {len(sensors)}")
+            pattern_runs.append(dict(sensors=list(sensors), threshold=_external(tab, z), built=pattern is not None,
+                                     labels=0 if own is None else own.labels, runtime_s=time.perf_counter() - t0))
+            patterns = () if pattern is None else (pattern,)
+        out = search(tab, max(z, inc()), progress=progress, patterns=patterns, **limits)
+        passes.append(("bounded" if z <= inc() else "bounded above the midpoint", out))
+        if not out.complete:  # the labels left open bound the plans above the pass's threshold
+            out.open_bound = max(out.open_bound, z)
+            return out, relaxed
+        if out.plan is not None or z <= inc():
+            return out, relaxed
+        relaxed = min(relaxed, z)  # no plan beats z
+        z = inc()
+
+
+def _pattern_tables(instance: Instance, objective: str) -> Tables:
+    """A subset's tables for its pattern's pass, with the bounds of the whole's bounded pass."""
+    tab = build_tables(instance, objective)
+    tab.with_tour_bound()
+    tab.with_pair_bound()
+    return tab
+
+
+def _subset_plan(instance: Instance, plan: tuple[np.ndarray, np.ndarray], sensors: list[int]) -> Plan:
+    positions, schedule = plan
+    return Plan.from_indices(instance, positions, np.array([sensors[u] if u >= 0 else -1 for u in schedule]))
 
 
 def _greedy_plan(instance: Instance, objective: str, stop: Stop) -> Plan | None:

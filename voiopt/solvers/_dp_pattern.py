@@ -1,0 +1,188 @@
+"""A subset's pattern database: a bound on each label of dp's bounded pass from the best future
+of the same state in a network of fewer sensors (docs/dp.md, "Pattern databases").
+
+Take a subset S of the sensors and a threshold z (an incumbent's value). A bounded pass over S
+alone with incumbent z keeps, at each slot and point, the labels (S-states) that dominance and
+the bounds leave. Backwards over those layers each kept S-label K gets f(K), an upper bound on
+the best its state can add in the later slots, over S: the best over its children of the
+child's slot term plus f of a kept label at the child's point whose ranks (and moves left, with
+a budget) are at least the child's; or, if no kept label has them, z minus the child's
+accumulated value.
+
+Why that last case is sound, by induction over the slots: every S-prefix reaching (t, p) is
+either matched by a kept label at (t, p) with at least its value and ranks (and moves left),
+or none of its completions is worth more than z over S. The start holds; a matched prefix's
+step is taken by its kept match too (an upload that would not raise the match's rank is left
+out, and the child without it is at least as good), and that child is kept, dominated by a kept
+label, or dropped by a bound that no completion beats z. So a prefix with no kept label of at
+least its ranks is in the second case.
+
+A label L of the whole network at (t, p) with accumulated value a has, for any completion, a
+later minimum over all sensors that is at most the minimum over S, and its S-part is an
+S-prefix. So L's best completion is at most a + f(K) for every kept K at (t, p) with ranks (and
+moves left) at least L's ranks of S; and if there is none, its S-part has no completion above
+z over S, which is at least its value over all sensors: L cannot beat z. A sensor of S that
+L has collapsed stands for a rank it does not hold, so such a label keeps the bounds it has.
+The bound needs the sum objectives (the mean ones): the best future adds to a.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from voiopt._jit import njit
+from voiopt.instance import Instance
+from voiopt.solvers._dp_shared import Tables, watched
+
+
+@dataclass
+class Pattern:
+    """The kept S-labels of each slot (grouped by point) and their best futures."""
+
+    sensors: np.ndarray  # S, as indices of the whole network's sensors
+    ranks: list[np.ndarray]  # per slot: (labels, |S|) int16
+    left: list[np.ndarray]  # per slot: moves left
+    off: list[np.ndarray]  # per slot: (n + 1,) offsets of each point's labels
+    future: list[np.ndarray]  # per slot: f of each label
+    budget_lane: int
+    threshold: float  # internal units: z
+    labels: int
+
+    def bound(self, stop, t: int, ranks: np.ndarray, acc: np.ndarray, pos: np.ndarray, left: np.ndarray,
+              ub: np.ndarray, collapsed: int) -> np.ndarray:
+        """The labels' bounds tightened by this pattern (-inf where no label of it has their ranks)."""
+        if t >= len(self.ranks):  # no S-label reached slot t: no S-prefix beats z
+            return np.full_like(ub, -np.inf)
+        return watched(stop, _tighten, ranks, acc, pos, left, ub, self.sensors, collapsed, self.budget_lane,
+                       self.ranks[t], self.left[t], self.off[t], self.future[t])
+
+
+def build(instance: Instance, objective: str, sensors: list[int], whole: Tables, threshold: float, stop,
+          threads: int, search, tables) -> tuple[Pattern | None, object]:
+    """The pattern of ``sensors`` at ``threshold`` (internal units), and the outcome of its pass
+    (a plan of the subset found above the threshold is a plan of the whole). None if the pass
+    or the futures were stopped, or if the subset's ranks do not mean what the whole's do."""
+    sub = instance.replace(sensors=[instance.to_dict()["sensors"][i] for i in sensors],
+                           name=f"{instance.name}-pattern{len(sensors)}")
+    tab = tables(sub)
+    if not _same_ranks(tab, whole, sensors):
+        return None, None
+    layers: list[tuple] = []
+    out = search(tab, threshold, record=layers, stop=stop, threads=threads)
+    if not out.complete:
+        return None, out
+    T = tab.up_rank.shape[0]
+    futures: list[np.ndarray] = [np.empty(0)] * len(layers)
+    nxt = (layers[0][0][:0], layers[0][2][:0], np.zeros_like(layers[0][4]), np.empty(0))
+    for t in range(len(layers) - 1, -1, -1):
+        ranks, acc, left, pos, off = layers[t]
+        futures[t] = watched(stop, _futures, t, T, ranks, acc, left, pos, tab.neighbors, tab.up_rank,
+                             tab.in_range_list, tab.in_range_count, tab.W, tab.to_end, tab.budget_lane, threshold,
+                             *nxt)
+        if stop.check() is not None:
+            return None, out
+        nxt = (ranks, left, off, futures[t])
+    return Pattern(np.asarray(sensors, dtype=np.int64), [x[0] for x in layers], [x[2] for x in layers],
+                   [x[4] for x in layers], futures, tab.budget_lane, threshold,
+                   sum(len(x[1]) for x in layers)), out
+
+
+def _same_ranks(sub: Tables, whole: Tables, sensors: list[int]) -> bool:
+    """A sensor's ranks are its own candidates' order, so they agree between the subset and the
+    whole network; checked on the worth tables, below each one's collapsed row."""
+    R = min(sub.W.shape[1], whole.W.shape[1]) - 1
+    return bool(np.array_equal(sub.W[:, :R], whole.W[sensors, :R]) and sub.W.shape[1] <= whole.W.shape[1]
+                and np.array_equal(sub.initial_rank, whole.initial_rank[sensors]))
+
+
+@njit(cache=True, inline="always")
+def _least_future(child, lf, budget_lane, ranks, left, lo, hi, future):
+    """The least f among the labels lo..hi-1 whose ranks (and moves left) are at least the
+    child's, and whether there is one."""
+    best = np.inf
+    found = False
+    S = child.shape[0]
+    for k in range(lo, hi):
+        ok = budget_lane == 0 or left[k] >= lf
+        j = 0
+        while ok and j < S:
+            ok = ranks[k, j] >= child[j]
+            j += 1
+        if ok:
+            found = True
+            if future[k] < best:
+                best = future[k]
+    return best, found
+
+
+@njit(cache=True, nogil=True)
+def _futures(t, T, ranks, acc, left, pos, nbr, up_rank, in_range_list, in_range_count, W, to_end, budget_lane,
+             threshold, next_ranks, next_left, next_off, next_future, halt):
+    """f of every kept S-label of slot t, from those of slot t+1 (module docstring)."""
+    L, S = ranks.shape
+    out = np.empty(L)
+    child = np.empty(S, dtype=np.int64)
+    slots_left = T - 2 - t  # moves that can still be made after slot t+1
+    for l in range(L):
+        if (l & 1023) == 0 and halt[0]:
+            return out
+        p = pos[l]
+        best = -np.inf
+        for o in range(-1, in_range_count[p]):
+            for i in range(S):
+                child[i] = ranks[l, i]
+            if o >= 0:
+                u = in_range_list[p, o]
+                if up_rank[t, p, u] <= child[u]:
+                    continue
+                child[u] = up_rank[t, p, u]
+            term = np.inf
+            for i in range(S):
+                if W[i, child[i], t + 1] < term:
+                    term = W[i, child[i], t + 1]
+            if t == T - 1:  # the last slot's upload: no move, no later slot
+                best = max(best, term)
+                continue
+            for k in range(5):
+                q = nbr[p, k]
+                if q < 0:
+                    continue
+                lf = left[l] - (1 if q != p else 0)
+                if lf < 0 or to_end[q] > min(lf, slots_left):
+                    continue
+                lf = min(lf, slots_left)
+                f, found = _least_future(child, lf, budget_lane, next_ranks, next_left, next_off[q],
+                                         next_off[q + 1], next_future)
+                if not found:
+                    f = threshold - (acc[l] + term)
+                best = max(best, term + f)
+        out[l] = best
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _tighten(ranks, acc, pos, left, ub, sensors, collapsed, budget_lane, s_ranks, s_left, s_off, s_future, halt):
+    """min(ub, a + f) for each label of the whole network (module docstring)."""
+    L = ranks.shape[0]
+    S = sensors.shape[0]
+    out = ub.copy()
+    mine = np.empty(S, dtype=np.int64)
+    for l in range(L):
+        if (l & 1023) == 0 and halt[0]:
+            return out
+        whole = True
+        for j in range(S):
+            mine[j] = ranks[l, sensors[j]]
+            if mine[j] == collapsed:
+                whole = False
+        if not whole:
+            continue
+        p = pos[l]
+        f, found = _least_future(mine, left[l], budget_lane, s_ranks, s_left, s_off[p], s_off[p + 1], s_future)
+        if not found:
+            out[l] = -np.inf
+        elif acc[l] + f < out[l]:
+            out[l] = acc[l] + f
+    return out
