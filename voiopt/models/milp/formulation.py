@@ -167,9 +167,17 @@ def level_terms(st: Structure, per_slot: bool) -> LevelTerms:
     return LevelTerms(h_i, h_t, h_l, h_inc, previous, previous_slot, cap_t[:n_z], floor_t[:n_z], (zi, zt + 1))
 
 
+# A worth unit (scale) at least the largest z cap / SCALE_RANGE: a warm start far below what the
+# sensors can be worth (1e-37 against 3 bit/s, found by an outside oracle) made z's bounds and
+# coefficients 1e8 and more, where HiGHS "proved" the warm start optimal 8 orders of magnitude
+# below the optimum.
+SCALE_RANGE = 1e6
+
+
 def build(instance: Instance, objective: str, *, scale: float | None = None) -> Model:
     """The full MILP for ``objective``: per-slot z for the mean objectives, one z for the
-    min/max objectives. Maximises (1/T) sum z_t, or z, in worth units of ``scale``."""
+    min/max objectives. Maximises (1/T) sum z_t, or z, in worth units of ``scale`` (raised to
+    the largest z cap / SCALE_RANGE if below it)."""
     kind = objectives.get(objective).worth
     st = structure(instance, kind)
     T = st.horizon
@@ -178,6 +186,8 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     if not (scale > 0 and math.isfinite(scale)):
         raise ValueError(f"scale: must be a positive finite number, got {scale!r}")
     lt = level_terms(st, per_slot)
+    if kind == "voi" and len(lt.cap):  # z's bounds and coefficients within SCALE_RANGE of 1 (see SCALE_RANGE)
+        scale = max(scale, float(lt.cap.max()) / SCALE_RANGE)
     h_i, h_t, h_inc = lt.sensor, lt.slot, lt.increment
 
     tr = _Triplets()
