@@ -50,6 +50,10 @@ class Pattern:
     threshold: float  # internal units: z
     labels: int
 
+    @property
+    def nbytes(self) -> int:
+        return sum(a.nbytes for part in (self.ranks, self.left, self.off, self.future) for a in part)
+
     def bound(self, stop, t: int, ranks: np.ndarray, acc: np.ndarray, pos: np.ndarray, left: np.ndarray,
               ub: np.ndarray, collapsed: int) -> np.ndarray:
         """The labels' bounds tightened by this pattern (-inf where no label of it has their ranks)."""

@@ -97,6 +97,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                             tab.steps)
     history: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per slot >= 1: parent, upload, pos
     stored = 0
+    fixed = tab.nbytes + sum(pattern.nbytes for pattern in patterns)  # held for the whole pass
     peak_layer = 1
     peak_bytes = 0
     labels = 1
@@ -133,7 +134,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
                     parts.append((*out[:3], idx[out[3]], *out[4:]))
                     generated += int(out[7])
                 if b + threads < len(chunks):
-                    stopped = _must_stop(stop, tab.nbytes + stored + sum(p[0].nbytes for p in parts),
+                    stopped = _must_stop(stop, fixed + stored + sum(p[0].nbytes for p in parts),
                                          label_budget, labels + sum(len(p[1]) for p in parts))
                     if stopped:
                         break
@@ -158,7 +159,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels{_progress_bound(tab, inc, ub)}")
             if len(acc) == 0:
                 return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, t + 1)
-            stopped = _must_stop(stop, tab.nbytes + stored + layer_bytes, label_budget, labels)
+            stopped = _must_stop(stop, fixed + stored + layer_bytes, label_budget, labels)
             if t + 1 < T - 1 and stopped:
                 return _incomplete(ub, ub > inc, labels, generated, peak_layer, peak_bytes, t + 1, stopped)
         keep = np.flatnonzero(ub > inc)
