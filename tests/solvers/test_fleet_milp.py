@@ -181,3 +181,22 @@ def test_one_robot_readers_of_the_model_refuse_a_fleet(tmp_path):
         pyomo_model.build(CASES[0], "min-voi")
     with pytest.raises(OptionError, match="2 robots"):
         import_solution(CASES[0], "min-voi", tmp_path / "m.mps", tmp_path / "s.sol")
+
+
+def test_a_solve_stopped_by_its_time_limit_says_so():
+    """With 1 ms the greedy warm start is cut short and HiGHS, stopped, proves the optimum
+    without handing over its plan: the status is time_limit (it was "feasible"), with the
+    proven bound; given time, the same network is solved to optimality."""
+    inst = from_dict({"name": "g21-41", "area": {"width": 2.0, "height": 1.0}, "horizon": 3,
+                      "channel": {"d_th": 0.5},
+                      "sensors": [{"position": [0.851089, 0.936624], "rho": 0.999999, "power_w": 0.1},
+                                  {"position": [0.934365, 0.028558], "rho": 0.91905, "power_w": 0.1},
+                                  {"position": [0.950467, 0.29038], "rho": 0.012972}],
+                      "robots": [{"start": [2.0, 1.0], "max_moves": 2}, {"start": [1.0, 1.0], "end": [1.0, 0.0]}]})
+    full = solve(inst, "mean-min-voi")
+    assert full.status == "optimal"
+    for limit in (0.001, 0.01):
+        r = solve(inst, "mean-min-voi", time_limit=limit)
+        assert r.status in ("time_limit", "optimal"), (limit, r.status, r.solver.get("stopped"))
+        assert r.status == "optimal" or r.solver["stopped"].startswith("time limit")
+        assert r.bound >= full.value * (1 - 1e-9)

@@ -398,8 +398,12 @@ class _Run:
             status = self.stop.reason or TIME_LIMIT
         else:  # keep the best plan, claim nothing
             self.details["note"] = f"HiGHS ended with {self.details['highs_status']!r}"
-            return "feasible", None
+            return (self.stop.reason if self.stop.requested else "feasible"), None
         value = self.worth(self.incumbent.value)
+        if status == "optimal" and self.stop.requested and bound is not None and (
+                bound - value > PATCH_RTOL * max(abs(bound), abs(value))):
+            # HiGHS proved its bound but, stopped, did not hand over the plan that meets it
+            status = self.stop.reason
         if bound is not None and value - bound > PATCH_RTOL * max(abs(bound), abs(value)):
             # a plan it found beats its "proven" bound: HiGHS's numerics failed, so its bound is no proof
             self.details["note"] = (f"HiGHS's bound {self.worth(bound):.10g} fell below the simulated value of a plan it "
