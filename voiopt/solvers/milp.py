@@ -55,7 +55,6 @@ PATCH_RTOL = 5e-7  # an "optimal" must be met to this relative gap (half of Resu
 # presolve "proved" a bound 3.6e-6 below the true optimum on a tiny instance; see docs/milp.md).
 BOUND_RTOL = 1e-8
 BOUND_ABS_FACTOR = 100.0
-HAZARD, HAZARD_FACTOR = 1e4, 3.0  # z caps above HAZARD scales: the allowance follows the caps (_abs_slack)
 TOLERANCES = {
     "mip_feasibility_tolerance": 1e-9,
     "primal_feasibility_tolerance": 1e-9,
@@ -466,19 +465,7 @@ _NO_INFO = SimpleNamespace(mip_dual_bound=math.inf, mip_gap=math.inf, primal_sol
 
 
 def _abs_slack(model: model_mod.Model) -> float:
-    """An absolute allowance for HiGHS's feasibility tolerances on the z rows, in worth units.
-
-    Ordinarily 100 x the tolerance x the scale. Where the z caps reach more than HAZARD scales
-    (a warm start far below what the sensors can be worth), HAZARD_FACTOR x the tolerance x the
-    largest cap instead: a level indicator within the tolerance of its bound moves z by up to
-    its increment times the tolerance, and the increments of a row add up to at most its cap.
-    On such models an outside oracle found HiGHS's bound below the optimum by 0.26 to 0.28 x
-    the tolerance x the largest cap (three networks); ordinary networks have caps of 2 to 450
-    scales."""
-    caps = model.levels.cap if model.levels is not None else np.zeros(0)
-    top = float(caps.max()) if len(caps) else 0.0
-    if top > HAZARD * model.scale:
-        return HAZARD_FACTOR * TOLERANCES["mip_feasibility_tolerance"] * top
+    """An absolute allowance for HiGHS's feasibility tolerances on the z rows, in worth units."""
     return BOUND_ABS_FACTOR * TOLERANCES["mip_feasibility_tolerance"] * model.scale
 
 

@@ -167,11 +167,13 @@ def level_terms(st: Structure, per_slot: bool) -> LevelTerms:
     return LevelTerms(h_i, h_t, h_l, h_inc, previous, previous_slot, cap_t[:n_z], floor_t[:n_z], (zi, zt + 1))
 
 
-# A worth unit (scale) at least the largest z cap / SCALE_RANGE: a warm start far below what the
-# sensors can be worth (1e-37 against 3 bit/s, found by an outside oracle) made z's bounds and
-# coefficients 1e8 and more, where HiGHS "proved" the warm start optimal 8 orders of magnitude
-# below the optimum.
-SCALE_RANGE = 1e6
+# A worth unit (scale) at least the largest z cap / SCALE_RANGE, so that z's bounds and the
+# coefficients of its rows stay within SCALE_RANGE of 1. A warm start far below what the sensors
+# can be worth (1e-37 against 3 bit/s, found by an outside oracle) made them 1e8 and more, and
+# HiGHS "proved" the warm start optimal 8 orders of magnitude below the optimum; at 1e6 its
+# bounds still fell up to 5e-4 below the optimum on such networks. Ordinary networks have caps
+# of 2 to 450 warm-start values, so their scale is the warm start's.
+SCALE_RANGE = 1e4
 
 
 def build(instance: Instance, objective: str, *, scale: float | None = None) -> Model:
