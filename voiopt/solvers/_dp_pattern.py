@@ -14,16 +14,29 @@ either matched by a kept label at (t, p) with at least its value and ranks (and 
 or none of its completions is worth more than z over S. The start holds; a matched prefix's
 step is taken by its kept match too (an upload that would not raise the match's rank is left
 out, and the child without it is at least as good), and that child is kept, dominated by a kept
-label, or dropped by a bound that no completion beats z. So a prefix with no kept label of at
-least its ranks is in the second case.
+label, or dropped by a bound that no completion beats z. (A dominating label that the costlier
+bound drops afterwards takes the dominated child with it: its bound covers that child's
+completions too. Children cut because they can no longer reach ``end`` within the slots and
+moves left have no completion, and ``_futures`` cuts them the same way.) So a prefix with no
+kept label of at least its ranks is in the second case. The subset's own pass collapses
+sensors too: its collapsed index is above every real rank of a sensor of S (a sensor's
+candidates are its own, the same in S and in the whole), so a collapsed lane matches any rank,
+and f of such a label is the future of a state in which that sensor counts +inf, which only
+raises the slot terms.
 
 A label L of the whole network at (t, p) with accumulated value a has, for any completion, a
 later minimum over all sensors that is at most the minimum over S, and its S-part is an
 S-prefix. So L's best completion is at most a + f(K) for every kept K at (t, p) with ranks (and
 moves left) at least L's ranks of S; and if there is none, its S-part has no completion above
 z over S, which is at least its value over all sensors: L cannot beat z. A sensor of S that
-L has collapsed stands for a rank it does not hold, so such a label keeps the bounds it has.
-The bound needs the sum objectives (the mean ones): the best future adds to a.
+L has collapsed stands for a rank it does not hold, so such a label keeps the bounds it has,
+except in a slot that the subset's pass never reached, where no S-prefix beats z and every
+label is dropped. The bound needs the sum objectives (the mean ones): the best future adds to a.
+
+The bound holds for the completions worth more than z, not for the others: a label whose
+completions are all at most z may get a bound below its value, or -inf. So a pattern built at
+z serves only a pass whose threshold is at least z, and such a pass, if stopped, bounds the
+optimum by the larger of z and its open labels' bounds (dp._bounded does both).
 """
 
 from __future__ import annotations
@@ -85,7 +98,7 @@ def build(instance: Instance, objective: str, sensors: list[int], whole: Tables,
         futures[t] = watched(stop, _futures, t, T, ranks, acc, left, pos, tab.neighbors, tab.up_rank,
                              tab.in_range_list, tab.in_range_count, tab.W, tab.to_end, tab.budget_lane, threshold,
                              *nxt)
-        if stop.check() is not None:
+        if stop.check() is not None:  # the stop is remembered: a kernel halted by it returned part of f
             return None, out
         nxt = (ranks, left, off, futures[t])
     return Pattern(np.asarray(sensors, dtype=np.int64), [x[0] for x in layers], [x[2] for x in layers],

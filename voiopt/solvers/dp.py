@@ -83,7 +83,9 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
     chunks, ``threads`` chunks at a time: they are independent, so the labels are the same
     whatever ``threads`` is. ``record`` (a list) receives each slot's expanded labels as
     (ranks, acc, moves left, points, offsets by point), the last slot's those that beat the
-    incumbent; ``patterns`` (_dp_pattern.Pattern) tighten each new layer's bounds."""
+    incumbent; ``patterns`` (_dp_pattern.Pattern) tighten each new layer's bounds. A pattern
+    built at threshold z needs ``incumbent`` >= z, and then a stopped pass's ``open_bound``
+    bounds the optimum only together with z (max of the two): see _dp_pattern."""
     stop = stop or Stop()
     from voiopt.solvers import _dp_core as core
 
