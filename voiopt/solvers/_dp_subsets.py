@@ -23,7 +23,7 @@ from voiopt.progress import progress_bar
 from voiopt.simulate import simulate
 from voiopt.stop import Stop
 
-SHARE = 0.5  # of the time limit that the subsets may take
+SHARE = 0.3  # of the time left that the subsets may take (the pattern databases need little of it)
 SECONDS = 10.0  # their budget when there is no time limit
 FIRST = 2  # sensors of the first subset
 MIN_SENSORS = 6  # with fewer, a subset is about as hard as the whole (the lattice and T dominate)
