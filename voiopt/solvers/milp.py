@@ -399,15 +399,14 @@ class _Run:
             self.details["note"] = f"HiGHS ended with {self.details['highs_status']!r}"
             return (self.stop.reason if self.stop.requested else "feasible"), None
         value = self.worth(self.incumbent.value)
-        if status == "optimal" and self.stop.requested and bound is not None and (
-                bound - value > PATCH_RTOL * max(abs(bound), abs(value))):
+        if status == "optimal" and self.stop.requested and bound is not None and _above(bound, value):
             # HiGHS proved its bound but, stopped, did not hand over the plan that meets it
             status = self.stop.reason
-        if bound is not None and value - bound > PATCH_RTOL * max(abs(bound), abs(value)):
+        if bound is not None and _above(value, bound):
             # a plan it found beats its "proven" bound: HiGHS's numerics failed, so its bound is no proof
             self.details["note"] = (f"HiGHS's bound {self.worth(bound):.10g} fell below the simulated value of a plan it "
                                     "found: no proof from it; the bound is the relaxation's (docs/milp.md)")
-            bound = float(model.levels.cap.mean()) if model.levels is not None else None
+            bound = self._dual_bound_worth(model, _NO_INFO)
             status = "feasible" if status == "optimal" else status
         return status, (None if bound is None else self.worth(bound))
 
@@ -432,7 +431,7 @@ class _Run:
 
         for _ in range(3):
             value = self.worth(self.incumbent.value)
-            if bound is None or bound - value <= PATCH_RTOL * max(abs(bound), abs(value)):
+            if bound is None or not _above(bound, value):
                 return bound
             if self.out_of_time():
                 return bound
@@ -462,6 +461,11 @@ REPAIR_SHARE, REPAIR_S, REPAIR_GAP = 0.1, 10.0, 0.05
 WATCH_S = 0.05  # how often the stop rule is checked while HiGHS runs
 HIGHS_GRACE_S = 1.0  # how long HiGHS may take to honour a stop request
 _NO_INFO = SimpleNamespace(mip_dual_bound=math.inf, mip_gap=math.inf, primal_solution_status=0, mip_node_count=0)
+
+
+def _above(a: float, b: float) -> bool:
+    """Worth a is above worth b by more than PATCH_RTOL (relative)."""
+    return a - b > PATCH_RTOL * max(abs(a), abs(b))
 
 
 def _abs_slack(model: model_mod.Model) -> float:

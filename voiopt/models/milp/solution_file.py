@@ -26,14 +26,21 @@ from voiopt.plan import Plan
 from voiopt.result import Result
 
 
+def _existing(path: str | os.PathLike, what: str) -> Path:
+    """The file ``path``; an OptionError naming ``what`` if it is missing or a folder."""
+    p = Path(path)
+    if not p.is_file():
+        raise OptionError(f"{what}: {path}: {'a folder, not a file' if p.is_dir() else 'no such file'}")
+    return p
+
+
 def model_names(model: str | os.PathLike) -> tuple[set[str], bool]:
     """The column names of an MPS or LP file (read by HiGHS), and whether it maximises."""
     import highspy
 
     h = new_highs()
     h.silent()
-    if not Path(model).is_file():
-        raise OptionError(f"MODEL: {model}: {'a folder, not a file' if Path(model).is_dir() else 'no such file'}")
+    _existing(model, "MODEL")
     if h.readModel(str(model)) == highspy.HighsStatus.kError:
         raise OptionError(f"MODEL: HiGHS cannot read {str(model)!r} as MPS or LP")
     lp = h.getLp()
@@ -57,9 +64,7 @@ def _check_objective(objective: str, in_model: set[str], maximises: bool, horizo
 
 def read_values(solution: str | os.PathLike, names: dict[str, int]) -> dict[str, float]:
     """``name value`` pairs of the known columns in a solution file."""
-    p = Path(solution)
-    if not p.is_file():
-        raise OptionError(f"SOLUTION: {solution}: {'a folder, not a file' if p.is_dir() else 'no such file'}")
+    p = _existing(solution, "SOLUTION")
     if p.stat().st_size > 8 * MAX_JSON_BYTES:
         raise OptionError(f"SOLUTION: {solution}: larger than {8 * MAX_JSON_BYTES} bytes")
     values = {}
