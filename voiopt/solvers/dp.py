@@ -340,8 +340,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if plan is not None:
             offer(plan, "greedy")
         if pair_bound and tdma and out.stopped == LABEL_BUDGET:
-            room = PAIR_TABLE_BYTES if stop.memory_bytes is None else stop.memory_bytes - 2 * tab.nbytes
-            tab.with_pair_bound(min(PAIR_TABLE_BYTES, room))  # within the memory limit, with room for labels
+            tab.with_pair_bound(_pair_room(stop, tab))
         limits["tdma"] = tdma
         if beam > 0 and out.stopped == LABEL_BUDGET:
             beam_pass(beam)
@@ -354,7 +353,9 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
                                         solve_subset, progress)
         if out.stopped == LABEL_BUDGET and not _dp_subsets.reaches(best_value, relaxed):
             out, relaxed = _bounded(instance, objective, tab, stop, subset_runs if patterns else [], inc, relaxed,
-                                    offer, passes, pattern_runs, progress, limits)
+                                    offer, passes, pattern_runs, progress, limits,
+                                    partial(_pattern_tables, objective=objective, tour=tab.steps.shape[0] > 0,
+                                            pair_bytes=_pair_room(stop, tab) if pair_bound and tdma else 0.0))
     if out.plan is not None:
         plan = Plan.from_indices(instance, *out.plan)
         found = _internal(tab, simulate(instance, plan).metrics[objective])
@@ -400,13 +401,15 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
 
 
 def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset_runs: list[dict], inc, relaxed: float,
-             offer, passes: list, pattern_runs: list, progress: bool, limits: dict) -> tuple[SearchOutcome, float]:
+             offer, passes: list, pattern_runs: list, progress: bool, limits: dict,
+             tables) -> tuple[SearchOutcome, float]:
     """The bounded pass, with the pattern database (``_dp_pattern``) of the first subset of at
     least PATTERN_SENSORS sensors that the subsets solved, if any. While the subsets' bound is
     above the incumbent, a first pass searches only above the midpoint z between them: it finds
     the optimum if that is above z (a pass is exact above its threshold) or proves the optimum
     at most z, and then the last pass starts from the incumbent. Returns the last pass and the
-    bound proven (internal units); ``pattern_runs`` receives a record of each pattern built."""
+    bound proven (internal units); ``pattern_runs`` receives a record of each pattern built.
+    ``tables(subset)`` compiles a subset with the bounds of the whole's bounded pass."""
     sensors = next((r["sensors"] for r in subset_runs
                     if r["status"] == "optimal" and len(r["sensors"]) >= PATTERN_SENSORS), None)
     z = inc()
@@ -417,7 +420,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
         if sensors is not None:
             t0 = time.perf_counter()
             pattern, own = _dp_pattern.build(instance, objective, sensors, tab, z, stop, limits["threads"], search,
-                                             partial(_pattern_tables, objective=objective))
+                                             tables)
             if own is not None and own.plan is not None:  # a plan of the subset above z is one of the whole
                 offer(_subset_plan(instance, own.plan, sensors), f"pattern of {len(sensors)}")
             pattern_runs.append(dict(sensors=list(sensors), threshold=_external(tab, z), built=pattern is not None,
@@ -434,12 +437,21 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
         z = inc()
 
 
-def _pattern_tables(instance: Instance, objective: str) -> Tables:
-    """A subset's tables for its pattern's pass, with the bounds of the whole's bounded pass."""
+def _pattern_tables(instance: Instance, objective: str, *, tour: bool = True,
+                    pair_bytes: float = PAIR_TABLE_BYTES) -> Tables:
+    """A subset's tables for its pattern's pass: the tour bound if ``tour``, the pairwise one
+    if its table fits in ``pair_bytes`` (the bounds of the whole's bounded pass)."""
     tab = build_tables(instance, objective)
-    tab.with_tour_bound()
-    tab.with_pair_bound()
+    if tour:
+        tab.with_tour_bound()
+    tab.with_pair_bound(pair_bytes)
     return tab
+
+
+def _pair_room(stop: Stop, tab: Tables) -> float:
+    """Bytes a pairwise table may take: PAIR_TABLE_BYTES, or less within the memory limit, with
+    room left for the labels beside the tables already built."""
+    return PAIR_TABLE_BYTES if stop.memory_bytes is None else min(PAIR_TABLE_BYTES, stop.memory_bytes - 2 * tab.nbytes)
 
 
 def _subset_plan(instance: Instance, plan: tuple[np.ndarray, np.ndarray], sensors: list[int]) -> Plan:
