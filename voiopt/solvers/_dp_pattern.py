@@ -47,6 +47,7 @@ import numpy as np
 
 from voiopt._jit import njit
 from voiopt.instance import Instance
+from voiopt.solvers import _dp_subsets
 from voiopt.solvers._dp_shared import Tables, watched
 
 
@@ -81,8 +82,7 @@ def build(instance: Instance, objective: str, sensors: list[int], whole: Tables,
     """The pattern of ``sensors`` at ``threshold`` (internal units), and the outcome of its pass
     (a plan of the subset found above the threshold is a plan of the whole). None if the pass
     or the futures were stopped, or if the subset's ranks do not mean what the whole's do."""
-    sub = instance.replace(sensors=[instance.to_dict()["sensors"][i] for i in sensors],
-                           name=f"{instance.name}-pattern{len(sensors)}")
+    sub = _dp_subsets.restricted(instance, sensors, f"{instance.name}-pattern{len(sensors)}")
     tab = tables(sub)
     if not _same_ranks(tab, whole, sensors):
         return None, None

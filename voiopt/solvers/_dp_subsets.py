@@ -73,7 +73,6 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
     budget = SECONDS if left is None else SHARE * max(left, 0.0)
     t0 = time.perf_counter()
     keep = sorted(need_order(tab)[:FIRST])
-    sensors = instance.to_dict()["sensors"]
     best = np.inf
     records: list[dict] = []
     with progress_bar(progress) as bar:
@@ -83,7 +82,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
             if spent >= budget or stop.check() is not None:
                 break
             bar.update(task, description=f"dp subset of {len(keep)} sensors{_line(tab, incumbent()[1], best)}")
-            sub = instance.replace(sensors=[sensors[i] for i in keep], name=f"{instance.name}-subset{len(keep)}")
+            sub = restricted(instance, keep, f"{instance.name}-subset{len(keep)}")
             r = solve(sub, budget - spent, _restricted(incumbent()[0], keep))
             best = min(best, r.bound * tab.to_internal)
             records.append(dict(sensors=list(keep), status=r.status, runtime_s=r.runtime_s,
@@ -97,6 +96,12 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
                 break  # no other sensor sets a minimum: the subset's plan is optimal for the whole
             keep = sorted([*keep, joins])
     return best, records
+
+
+def restricted(instance: Instance, keep: list[int], name: str) -> Instance:
+    """The network of the sensors ``keep`` alone (same lattice, robot, slots and rules)."""
+    sensors = instance.to_dict()["sensors"]
+    return instance.replace(sensors=[sensors[i] for i in keep], name=name)
 
 
 def reaches(value: float, bound: float) -> bool:
