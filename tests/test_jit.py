@@ -10,6 +10,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
+
 from voiopt import _jit
 from voiopt.solvers import _dp_core
 
@@ -18,6 +20,8 @@ PACKAGE = Path(_jit.__file__).resolve().parent
 RUN = """
 import sys
 from pathlib import Path
+import numpy as np
+
 from voiopt import _jit
 _jit.ROOT = Path(sys.argv[1]).resolve()
 _jit.KERNEL_MODULES = ("callee.py", "caller.py")
@@ -80,3 +84,18 @@ def test_editing_only_the_inlined_module_recompiles_its_caller(tmp_path):
     (tmp_path / "callee.py").write_text(textwrap.dedent(CALLEE.format(5)))  # caller.py is untouched
     value, _ = _run(tmp_path)
     assert value == "6"
+
+
+def test_prefetch_is_a_hint_that_changes_no_result():
+    @_jit.njit
+    def total(vector, matrix):
+        s = 0.0
+        for i in range(vector.shape[0] + 64):  # past the end too: a prefetch never faults
+            _jit.prefetch(vector, i)
+            _jit.prefetch(matrix, i % matrix.shape[0])
+        for i in range(vector.shape[0]):
+            s += vector[i]
+        return s + matrix.sum()
+
+    vector, matrix = np.arange(1000.0), np.arange(24, dtype=np.uint64).reshape(8, 3)
+    assert total(vector, matrix) == vector.sum() + matrix.sum()

@@ -8,7 +8,8 @@ machine code when only that other module changed, for instance after a ``git pul
 the old numbers without a word. So voiopt's kernel modules take ``njit`` from here: importing
 this module puts, ahead of numba's own cache locators, variants for the files of this package
 whose stamp is numba's and the digest of all of ``KERNEL_MODULES``. Editing any of them
-recompiles every kernel once. Functions outside the package are cached as numba does by itself
+recompiles every kernel once (and so does editing this module, whose ``prefetch`` intrinsic is
+compiled into kernels). Functions outside the package are cached as numba does by itself
 (and a user who sets ``NUMBA_CACHE_LOCATOR_CLASSES`` chooses the locators, this included).
 """
 
@@ -18,7 +19,9 @@ import hashlib
 from pathlib import Path
 
 import numba
-from numba.core import caching
+from llvmlite import ir
+from numba.core import caching, cgutils, types
+from numba.extending import intrinsic
 
 njit = numba.njit
 
@@ -41,11 +44,31 @@ def digest() -> str:
     """SHA-256 of the kernel modules' names and contents (once per process and set of files)."""
     key = (ROOT, KERNEL_MODULES)
     if key not in _digests:
-        h = hashlib.sha256()
+        h = hashlib.sha256(Path(__file__).read_bytes())  # this module's intrinsics are compiled into kernels
         for name in KERNEL_MODULES:
             h.update(name.encode() + b"\0" + (ROOT / name).read_bytes() + b"\0")
         _digests[key] = h.hexdigest()
     return _digests[key]
+
+
+@intrinsic
+def prefetch(typingctx, arr, index):
+    """prefetch(arr, i) in a kernel asks the CPU to bring arr[i] (arr[i, 0] of a 2-D arr) into its
+    caches, for a read soon. A hint with no effect on results: it never faults, even out of range."""
+
+    def codegen(context, builder, signature, args):
+        aryty, idxty = signature.args
+        ary = context.make_array(aryty)(context, builder, args[0])
+        idx = [context.cast(builder, args[1], idxty, types.intp)]
+        idx += [context.get_constant(types.intp, 0)] * (aryty.ndim - 1)
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, idx, wraparound=False)
+        i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
+                                            "llvm.prefetch.p0i8")
+        builder.call(fn, [builder.bitcast(ptr, i8p), i32(0), i32(3), i32(1)])  # read, keep in all levels, data
+        return context.get_dummy_value()
+
+    return types.void(arr, index), codegen
 
 
 def _numba(name: str):

@@ -4,13 +4,20 @@ table of _qtable.py, and the greedy rollout of a trained table.
 Training runs in chunks of whole episodes; between chunks Python grows the arrays when
 needed, updates the progress bar and checks the stop rule. The key is updated in place each
 step, not rebuilt.
+
+A step waits on memory: with millions of states, the hash slot of s_{t+1} and the Q-values of
+s_t are rarely in the CPU's caches. The random stream fixes every exploring step's action in
+advance, so with one-word keys and no mask a cursor runs up to AHEAD slots ahead of the
+episode along its exploring steps, prefetching the hash slot of each state it will reach, and
+AHEAD_POOL slots ahead probes that slot (by then in cache) to prefetch the Q-value the step
+will update. Prefetches are hints: the table, and so the plan, are the same without them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from voiopt._jit import njit
+from voiopt._jit import njit, prefetch
 from voiopt.models import mdp as mdp_mod
 from voiopt.solvers.qlearning._qtable import (
     _ARG_BITS,
@@ -20,9 +27,14 @@ from voiopt.solvers.qlearning._qtable import (
     _find,
     _greedy,
     _insert,
+    _row,
     room_for_episode,
 )
 from voiopt.solvers.qlearning._rng import _GOLDEN, _S11, _TWO_M53, _mix
+
+AHEAD = 8  # slots the look-ahead cursor runs ahead of the episode
+AHEAD_POOL = 3  # slots ahead where it prefetches the Q-value to update
+RING = 16  # a power of two > AHEAD: the cursor's keys and actions by slot, modulo RING
 
 
 @njit(cache=True, inline="always")
@@ -127,6 +139,11 @@ def _train(
         clear[f] = ~(((np.uint64(1) << np.uint64(field_width[f])) - np.uint64(1)) << np.uint64(field_shift[f]))
     ps, pclear = np.uint64(field_shift[0]), clear[0]  # the position is in word 0
     inc0 = inc[0]
+    ahead = W == 1 and not masked  # the look-ahead cursor (module docstring)
+    tmask = np.uint64(table.shape[0] - 1)
+    ring_key = np.zeros(RING, np.uint64)
+    ring_k = np.zeros(RING, np.int64)
+    ring_tag = np.full(RING, -1, np.int64)
 
     bg = beta * gamma
     state = rng[0]
@@ -150,6 +167,8 @@ def _train(
             n_states += 1
             used += n_actions[p]
         epsilon = eps[0]
+        tag0 = ep * (horizon + 1)  # the ring's entries of this episode are tagged tag0 + slot
+        cursor, stuck, la_k0, la_p, la_rng = -1, True, k0, p, state
         for t in range(horizon):
             # epsilon-greedy: x, and if exploring a second number for the action
             state += _GOLDEN
@@ -162,39 +181,68 @@ def _train(
                 else:
                     k = int(x2 * n_actions[p])
             elif masked:
-                row0 = np.int64(table[cur, META] >> _ARG_BITS) - 1
-                k, _ = _masked_best(pool, row0, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+                k, _ = _masked_best(pool, _row(table, cur), p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
             else:
                 k = _greedy(table, cur)
             u = action_upload[p, k]
             p_next = action_next[p, k]
             for i in range(N):
                 aoi[i] += 1
+            if u >= 0:
+                aoi[u] = 1
+                qidx[u] = 1 + p
             k0 += inc0
             for w in range(1, W):
                 key[w] += inc[w]
             k0 = (k0 & pclear) | (np.uint64(p_next) << ps)
-            if moves_field and p_next != p:
-                moves += 1
-                k0 = _set_field(k0, key, 2 * N + 2, moves, field_word, field_shift, clear)
-            elif p_next != p:
-                moves += 1
             if u >= 0:
-                aoi[u] = 1
-                qidx[u] = 1 + p
                 k0 = _set_field(k0, key, 1 + 2 * u, 1, field_word, field_shift, clear)  # A_u = 1
                 k0 = _set_field(k0, key, 2 + 2 * u, 1 + p, field_word, field_shift, clear)  # q_u: from p
+            if p_next != p:
+                moves += 1
+                if moves_field:
+                    k0 = _set_field(k0, key, 2 * N + 2, moves, field_word, field_shift, clear)
+            if ahead:  # the look-ahead cursor (module docstring)
+                if cursor <= t + 1:  # the episode has caught up: restart the cursor at s_{t+1}
+                    cursor, stuck, la_k0, la_p, la_rng = t + 1, False, k0, p_next, state
+                while not stuck and cursor < t + 1 + AHEAD and cursor < horizon:
+                    la_rng += _GOLDEN
+                    if float(_mix(la_rng) >> _S11) * _TWO_M53 >= epsilon:  # greedy: its action waits for the table
+                        stuck = True
+                        break
+                    la_rng += _GOLDEN
+                    la_k = int(float(_mix(la_rng) >> _S11) * _TWO_M53 * n_actions[la_p])
+                    j = cursor & (RING - 1)
+                    ring_key[j], ring_k[j], ring_tag[j] = la_k0, la_k, tag0 + cursor
+                    la_u, la_next = action_upload[la_p, la_k], action_next[la_p, la_k]
+                    la_k0 = ((la_k0 + inc0) & pclear) | (np.uint64(la_next) << ps)
+                    if la_u >= 0:
+                        la_k0 = _set_field(la_k0, key, 1 + 2 * la_u, 1, field_word, field_shift, clear)
+                        la_k0 = _set_field(la_k0, key, 2 + 2 * la_u, 1 + la_p, field_word, field_shift, clear)
+                    la_p = la_next
+                    cursor += 1
+                    prefetch(table, np.int64(_mix(la_k0) & tmask))  # _find's first slot for a one-word key
+                j = (t + 1 + AHEAD_POOL) & (RING - 1)
+                if ring_tag[j] == tag0 + t + 1 + AHEAD_POOL:  # its hash slot was prefetched a few steps ago
+                    s2, f2 = _find(ring_key[j], key, table)
+                    if f2:
+                        prefetch(pool, _row(table, s2) + ring_k[j])
             r = _slot_reward(aoi, qidx, voi_reward, aoi_reward)
             if u < 0:
                 r = r - penalty
             # find s_{t+1}; store it unless it is s_T (never acted in)
             nxt, found = _find(k0, key, table)
             if found and masked and t + 1 < horizon:  # the best feasible action of s_{t+1}
-                row1 = np.int64(table[nxt, META] >> _ARG_BITS) - 1
-                _, future = _masked_best(pool, row1, p_next, t + 1, moves, n_actions[p_next], horizon, action_next,
+                _, future = _masked_best(pool, _row(table, nxt), p_next, t + 1, moves, n_actions[p_next], horizon, action_next,
                                          to_end, budget)
             elif found:
                 future = tablef[nxt, QMAX]
+                if ahead:  # the Q-value step t + 1 will update, when its action is known
+                    j = (t + 1) % RING
+                    if ring_tag[j] == tag0 + t + 1:
+                        prefetch(pool, _row(table, nxt) + ring_k[j])
+                    elif stuck and cursor == t + 1:
+                        prefetch(pool, _row(table, nxt) + _greedy(table, nxt))
             else:
                 future = q_init
                 if t + 1 < horizon:
@@ -250,8 +298,7 @@ def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_uploa
         s, found = _find(key[0], key, table)
         if masked:
             if found:
-                row = np.int64(table[s, W] >> _ARG_BITS) - 1
-                k, _ = _masked_best(pool, row, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+                k, _ = _masked_best(pool, _row(table, s), p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
             else:
                 k = _masked_draw(0.0, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
         else:

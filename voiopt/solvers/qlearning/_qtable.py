@@ -79,6 +79,12 @@ def _find(k0, key, table):
 
 
 @njit(cache=True, inline="always")
+def _row(table, s):
+    """Where the Q-values of the state in slot s start in the pool."""
+    return np.int64(table[s, table.shape[1] - 2] >> _ARG_BITS) - 1
+
+
+@njit(cache=True, inline="always")
 def _greedy(table, s):
     """The first action of maximal Q-value in slot s."""
     return np.int64(table[s, table.shape[1] - 2] & _ARG_MASK)
