@@ -238,7 +238,7 @@ def _train(
             elif found:
                 future = tablef[nxt, QMAX]
                 if ahead:  # the Q-value step t + 1 will update, when its action is known
-                    j = (t + 1) % RING
+                    j = (t + 1) & (RING - 1)
                     if ring_tag[j] == tag0 + t + 1:
                         prefetch(pool, _row(table, nxt) + ring_k[j])
                     elif stuck and cursor == t + 1:
