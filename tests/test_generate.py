@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import voiopt
-from voiopt import lattice
+from voiopt import fields, lattice
 from voiopt.errors import OptionError
 from voiopt.generate import case_study_plan, generate_set, write_set
 
@@ -99,3 +99,13 @@ def test_generated_fleets_with_ends_can_always_finish_together():
     # the same seed gives the same fleet, redraws included
     assert voiopt.generate(3, 12, width=3.0, height=3.0, seed=86, robots=3, blocked_fraction=0.3, end="random") == \
         voiopt.generate(3, 12, width=3.0, height=3.0, seed=86, robots=3, blocked_fraction=0.3, end="random")
+
+
+@pytest.mark.parametrize("make", [voiopt.generate, fields.factory], ids=["generate", "factory"])
+def test_a_network_seed_is_an_integer_or_a_seed_sequence_named_by_its_entropy(make):
+    by_sequence = make(seed=np.random.SeedSequence(5))
+    assert "seed5" in by_sequence.name
+    assert by_sequence.to_dict()["sensors"] == make(seed=np.random.SeedSequence(5)).to_dict()["sensors"]
+    for bad in (-1, 1.5, "7", True):
+        with pytest.raises(OptionError, match="seed"):
+            make(seed=bad)

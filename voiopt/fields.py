@@ -205,6 +205,16 @@ def factory_blocked(size: int = int(FACTORY_SIZE)) -> list[tuple[int, int]]:
     return out
 
 
+def seeded(seed) -> tuple[np.random.Generator, object]:
+    """The random stream of a generated network, and the seed its default name shows. A seed is
+    an integer >= 0; generate_set gives each of its networks a numpy SeedSequence, named by
+    its entropy."""
+    if isinstance(seed, np.random.SeedSequence):
+        return np.random.default_rng(seed), seed.entropy
+    check_seed(seed)
+    return np.random.default_rng(seed), seed
+
+
 def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, seed: int | np.random.SeedSequence = 0,
             max_moves: int | None = FACTORY_MAX_MOVES, rho: tuple[float, float] = FACTORY_RHO,
             channel: Channel | None = None, name: str | None = None, robots: int = 1) -> Instance:
@@ -213,14 +223,12 @@ def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, see
     on machines and shelves, each within d_th of an aisle point, rho ~ U(0.6, 0.99), T = 100 and
     a budget of 80 moves. With ``robots`` K > 1, the K robots start and end at the free points
     nearest the dock (MODEL.md section 10: no two share a point)."""
-    if not isinstance(seed, np.random.SeedSequence):  # generate_set's networks get one each
-        check_seed(seed)
+    rng, seed_label = seeded(seed)
     if n_sensors is not None and (isinstance(n_sensors, bool) or not isinstance(n_sensors, int) or n_sensors < 1):
         raise OptionError(f"sensors: must be an integer >= 1, got {n_sensors!r}")
     if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 1:
         raise OptionError(f"horizon: must be an integer >= 1, got {horizon!r}")
     check_options(0.0, None, max_moves, horizon)
-    rng = np.random.default_rng(seed)
     channel = channel or Channel()
     size = int(FACTORY_SIZE)
     blocked = factory_blocked(size)
@@ -233,8 +241,7 @@ def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, see
             continue  # no aisle point within range: the robot could never collect it
         sensors.append(Sensor((round(float(x), 6), round(float(y), 6)), float(rng.uniform(*rho)), 1.0, 1, None))
     if name is None:
-        s = seed.entropy if isinstance(seed, np.random.SeedSequence) else seed
-        name = f"factory-n{n}-t{horizon}-seed{s}"
+        name = f"factory-n{n}-t{horizon}-seed{seed_label}"
     dock = (0.0, 0.0)
     inst = Instance(name, FACTORY_SIZE, FACTORY_SIZE, horizon, dock, tuple(sensors), 1.0, channel,
                     tuple((float(x), float(y)) for x, y in blocked), dock, max_moves)

@@ -46,10 +46,8 @@ def generate(
     ``robots`` K > 1 (MODEL.md section 10) adds robots 1..K-1 after that (fields.add_robots):
     distinct starts, uniform or with ``dock`` around robot 0's start, and ends by ``end``."""
     _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi)
-    if not isinstance(seed, np.random.SeedSequence):  # generate_set's networks get one each
-        check_seed(seed)
+    rng, seed_label = fields.seeded(seed)
     fields.check_options(blocked_fraction, end, max_moves, horizon)
-    rng = np.random.default_rng(seed)
     channel = channel or Channel()
     nx = int(np.floor(width / step + instance_mod.LATTICE_TOL)) + 1
     ny = int(np.floor(height / step + instance_mod.LATTICE_TOL)) + 1
@@ -63,8 +61,7 @@ def generate(
         sensors.append(Sensor((round(float(x), 6), round(float(y), 6)), float(r), float(power_w), a, None))
     start = (float(rng.integers(nx)) * step, float(rng.integers(ny)) * step)
     if name is None:
-        s = seed.entropy if isinstance(seed, np.random.SeedSequence) else seed
-        name = f"n{n_sensors}-t{horizon}-seed{s}"
+        name = f"n{n_sensors}-t{horizon}-seed{seed_label}"
     inst = Instance(name, float(width), float(height), int(horizon), start, tuple(sensors), float(step), channel)
     if blocked_fraction or end is not None or max_moves is not None:
         inst = fields.draw(inst, rng, blocked_fraction, end, max_moves)
