@@ -16,7 +16,7 @@ import numpy as np
 from voiopt._jit import njit
 from voiopt.models import fleet_mdp
 from voiopt.solvers.qlearning._kernels import _slot_reward
-from voiopt.solvers.qlearning._qtable import _ARG_BITS, QTable, _find, _insert, room_for_episode
+from voiopt.solvers.qlearning._qtable import QTable, _find, _insert, _row, room_for_episode
 from voiopt.solvers.qlearning._rng import _GOLDEN, _S11, _TWO_M53, _mix
 
 FLEET_SLOTS = 1 << 10  # the first hash table of a fleet: joint rows are long, so start small
@@ -161,7 +161,7 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
                          counted, budgets, legal, nxt, up)
         epsilon = eps[0]
         for t in range(horizon):
-            row = np.int64(table[cur, W] >> _ARG_BITS) - 1
+            row = _row(table, cur)
             state += _GOLDEN
             x = float(_mix(state) >> _S11) * _TWO_M53
             if x < epsilon:
@@ -178,8 +178,7 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
             n_next = _legal(points, moves, t + 1, horizon, n_actions, action_upload, action_next, masked, alive,
                             radix, counted, budgets, legal_next, nxt, up)
             if found:
-                row1 = np.int64(table[nxt_slot, W] >> _ARG_BITS) - 1
-                _, future = _first_max(pool, row1, legal_next, n_next)
+                _, future = _first_max(pool, _row(table, nxt_slot), legal_next, n_next)
             else:
                 future = q_init
                 if t + 1 < horizon:
@@ -216,7 +215,7 @@ def _rollout(horizon, slot_in_state, starts, initial_aoi, n_actions, action_uplo
         s, found = _find(key[0], key, table)
         k = legal[0]
         if found:
-            k, _ = _first_max(pool, np.int64(table[s, W] >> _ARG_BITS) - 1, legal, n_legal)
+            k, _ = _first_max(pool, _row(table, s), legal, n_legal)
         _split(k, points, n_actions, action_upload, action_next, nxt, up)
         for r in range(K):
             idx[r, t], sched[r, t] = points[r], up[r]
@@ -237,16 +236,12 @@ def train(model: fleet_mdp.FleetMDP, table: QTable, n_episodes: int, eps: np.nda
           beta: float, gamma: float, rng: np.ndarray) -> tuple[int, bool]:
     """Run n_episodes of Algorithm 1 on the joint MDP, growing the table as needed.
     Returns (episodes run, False if stopped by the memory limit)."""
-    one, done = model.one, 0
-    while done < n_episodes:
-        done += _train(
-            n_episodes - done, model.horizon, eps, eps0, beta, gamma, table.q_init, one.penalty, one.reward == "aoi",
-            int(one.slot_in_state), *_arrays(model), one.voi_reward, model.field_word, model.field_shift,
-            table.table, table.table.view(np.float64), table.pool, table.counts, rng, *_masks(model),
-        )
-        if done < n_episodes and not table.grow():
-            return done, False
-    return done, True
+    one = model.one
+    return table.run(n_episodes, lambda n: _train(
+        n, model.horizon, eps, eps0, beta, gamma, table.q_init, one.penalty, one.reward == "aoi",
+        int(one.slot_in_state), *_arrays(model), one.voi_reward, model.field_word, model.field_shift,
+        table.table, table.table.view(np.float64), table.pool, table.counts, rng, *_masks(model),
+    ))
 
 
 def rollout(model: fleet_mdp.FleetMDP, table: QTable) -> tuple[np.ndarray, np.ndarray]:
@@ -257,10 +252,4 @@ def rollout(model: fleet_mdp.FleetMDP, table: QTable) -> tuple[np.ndarray, np.nd
 
 def to_dict(model: fleet_mdp.FleetMDP, table: QTable) -> dict[tuple, list[float]]:
     """{joint state: Q-values of its joint actions}, for tests and inspection."""
-    W = model.n_words
-    out = {}
-    for slot in table.table[table.table[:, W] != 0]:
-        state = model.decode(slot[:W])
-        r = (int(slot[W]) >> int(_ARG_BITS)) - 1
-        out[state] = table.pool[r: r + model.joint_count(state[0])].tolist()
-    return out
+    return table.to_dict(lambda state: model.joint_count(state[0]))

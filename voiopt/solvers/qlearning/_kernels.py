@@ -321,18 +321,13 @@ def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, e
           beta: float, gamma: float, rng: np.ndarray) -> tuple[int, bool]:
     """Run n_episodes of Algorithm 1, growing the table as needed.
     Returns (episodes run, False if stopped by the memory limit)."""
-    done = 0
-    while done < n_episodes:
-        done += _train(
-            n_episodes - done, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
-            model.reward == "aoi", int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
-            model.action_upload, model.action_next, model.voi_reward, model.field_word,
-            model.field_shift, model.field_width, table.table, table.table.view(np.float64), table.pool,
-            table.counts, rng, model.masked, model.to_end, model.budget,
-        )
-        if done < n_episodes and not table.grow():
-            return done, False
-    return done, True
+    return table.run(n_episodes, lambda n: _train(
+        n, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
+        model.reward == "aoi", int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
+        model.action_upload, model.action_next, model.voi_reward, model.field_word,
+        model.field_shift, model.field_width, table.table, table.table.view(np.float64), table.pool,
+        table.counts, rng, model.masked, model.to_end, model.budget,
+    ))
 
 
 def rollout(model: mdp_mod.MDP, table: QTable) -> tuple[np.ndarray, np.ndarray]:

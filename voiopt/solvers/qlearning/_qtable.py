@@ -180,15 +180,28 @@ class QTable:
         self.pool = self._reserved[:pool_len]
         return True
 
-    def to_dict(self) -> dict[tuple, list[float]]:
-        """{state: Q-values of its feasible actions}, for tests and inspection."""
+    def run(self, n_episodes: int, chunk) -> tuple[int, bool]:
+        """Run n_episodes through ``chunk(n)`` (a kernel that runs up to n episodes and stops at
+        an episode boundary when the table might overflow), growing the table between calls.
+        Returns (episodes run, False if stopped by the memory limit)."""
+        done = 0
+        while done < n_episodes:
+            done += chunk(n_episodes - done)
+            if done < n_episodes and not self.grow():
+                return done, False
+        return done, True
+
+    def to_dict(self, row_length=None) -> dict[tuple, list[float]]:
+        """{state: Q-values of its feasible actions}, for tests and inspection. ``row_length(state)``
+        is how many there are (default: the actions at the state's point)."""
         m = self.model
         W = m.n_words
+        length = row_length or (lambda state: int(m.n_actions[state[0]]))
         out = {}
         for slot in self.table[self.table[:, W] != 0]:
             state = m.decode(slot[:W])
             r = (int(slot[W]) >> int(_ARG_BITS)) - 1
-            out[state] = self.pool[r: r + int(m.n_actions[state[0]])].tolist()
+            out[state] = self.pool[r: r + length(state)].tolist()
         return out
 
 
