@@ -17,8 +17,7 @@ from voiopt import _numba_start, fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file
 from voiopt.cli_bench import add_commands as add_bench_commands
-from voiopt.errors import OptionError, PlanError, VoioptError
-from voiopt.experiments.runner import WorkerDied
+from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
 from voiopt.models.mdp import REWARD_UNITS

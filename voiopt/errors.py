@@ -40,3 +40,7 @@ class MissingExtraError(VoioptError):
             f"this needs the optional package '{module}': in a clone, .venv/bin/pip install -e '.[{extra}]' "
             f"(an installed voiopt: pip install 'voiopt[{extra}]')"
         )
+
+
+class WorkerDied(RuntimeError):
+    """A pool worker of a sweep ended without handing back its run (the CLI exits 1)."""

@@ -24,7 +24,7 @@ from typing import Any
 
 from voiopt import instance as instance_mod
 from voiopt._files import atomic_write, read_json, safe_name, write_json_atomic
-from voiopt.errors import MissingExtraError, OptionError, VoioptError, check_seed
+from voiopt.errors import MissingExtraError, OptionError, VoioptError, WorkerDied, check_seed
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
 from voiopt.plan import made_for
@@ -360,10 +360,6 @@ def run_tasks(
 
 
 STOP_GRACE_S = 5.0  # how long a stopped sweep waits for its running solves to hand back
-
-
-class WorkerDied(RuntimeError):
-    """A pool worker ended without handing back its run."""
 
 
 def _signal_workers(ex, signum: int) -> None:
