@@ -13,7 +13,9 @@ Then the command as a user runs it, process start-up included: for each network 
 ``voiopt solve NETWORK.json --method qlearning --episodes E --seed S -o RESULT`` (the CLI of
 the voiopt this script imports, ``python -m voiopt``), and the ratio of its steps per wall
 second (all networks' steps over all their wall time) to the reference's steps per wall
-second; and the start-up of a second run: ``--episodes 10``, wall time, numba's cache warm.
+second; the same ratio per network against plain-Python runs timed just before and just after
+it (the faster counts), which a drift of the VM's speed during the run moves less; and the
+start-up of a second run: ``--episodes 10``, wall time, numba's cache warm.
 Targets (issue 15, item 4): ratio >= 150 including start-up, a second run starting well
 under a second; (issue 4) 1e6 episodes < 10 s on one core, peak memory < 2 GiB.
 """
@@ -89,7 +91,7 @@ def main() -> int:
               f"{n / cpu:>12,.0f} {r.solver['table_states']:>9} {r.solver['table_mib']:>9.1f}  {r.value:.6g}")
     # the reference again, after: on a shared machine the load changes; keep its faster run
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB on Linux, this process only
-    cli_steps, cli_walls, startups = command_line(networks, args)
+    cli_steps, cli_walls, startups, paired = command_line(networks, args, lambda: reference()[0])
     ref_wall2, ref_cpu2 = reference()
     ref_wall, ref_cpu = min(ref_wall, ref_wall2), min(ref_cpu, ref_cpu2)
     ref_steps = args.reference_episodes * T
@@ -99,6 +101,9 @@ def main() -> int:
           f"ratio {cli_steps / sum(cli_walls) / (ref_steps / ref_wall):.0f}x to plain Python in wall time "
           f"(target >= 150x); second-run start-up (--episodes 10) "
           f"{' '.join(f'{s:.2f}' for s in startups)} s wall, best {min(startups):.2f} s")
+    print(f"command line, each run paired with the plain-Python runs just before and after it (the faster counts; "
+          f"on a VM whose speed drifts, the steadier ratio): {', '.join(f'{r:.0f}x' for r in paired)}, "
+          f"median {float(np.median(paired)):.0f}x (target >= 150x)")
     print(f"ratio to plain Python {steps / sum(cpus) / (ref_steps / ref_cpu):.0f}x in cpu time "
           f"({steps / sum(walls) / (ref_steps / ref_wall):.0f}x in wall time) (target >= 100x); "
           f"per {args.episodes} episodes: wall max {max(walls):.2f} s, cpu max {max(cpus):.2f} s (target < 10 s); "
@@ -107,9 +112,11 @@ def main() -> int:
     return 0
 
 
-def command_line(networks, args) -> tuple[int, list[float], list[float]]:
+def command_line(networks, args, reference) -> tuple[int, list[float], list[float], list[float]]:
     """Time ``voiopt solve`` in fresh processes: (steps, wall seconds per network, wall seconds
-    of three --episodes 10 runs). The voiopt run is the one this script imports."""
+    of three --episodes 10 runs, each network's ratio to the faster of the plain-Python runs
+    (``reference()``, wall seconds) just before and just after it). The voiopt run is the one
+    this script imports."""
     root = str(Path(voiopt.__file__).resolve().parent.parent)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, *filter(None, [os.environ.get("PYTHONPATH")])])}
     command = [sys.executable, "-m", "voiopt", "solve"]
@@ -129,16 +136,22 @@ def command_line(networks, args) -> tuple[int, list[float], list[float]]:
 
         print(f"{'command line':<22} {'episodes':>9} {'wall s':>7} {'steps/wall s':>13}  (python -m voiopt solve ..., "
               "process start-up included)")
+        ref_steps = args.reference_episodes * networks[0].horizon
+        rates, refs = [], [reference()]
         for inst in networks:
             wall, result = run(inst, args.episodes)
+            refs.append(reference())
             n = result["solver"]["episodes_run"] * inst.horizon
             steps += n
             walls.append(wall)
+            rates.append(n / wall)
             print(f"{inst.name:<22} {result['solver']['episodes_run']:>9} {wall:>7.2f} {n / wall:>13,.0f}  "
-                  f"(startup_s {result['solver']['startup_s']:.2f})")
+                  f"(startup_s {result['solver']['startup_s']:.2f}; plain Python before and after: "
+                  f"{ref_steps / refs[-2]:,.0f} and {ref_steps / refs[-1]:,.0f} steps per wall second)")
+        paired = [rate / (ref_steps / min(before, after)) for rate, before, after in zip(rates, refs[:-1], refs[1:], strict=True)]
         for _ in range(3):
             startups.append(run(networks[0], 10)[0])
-    return steps, walls, startups
+    return steps, walls, startups, paired
 
 
 if __name__ == "__main__":
