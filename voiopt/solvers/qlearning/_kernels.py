@@ -7,10 +7,10 @@ step, not rebuilt.
 
 A step waits on memory: with millions of states, the hash slot of s_{t+1} and the Q-values of
 s_t are rarely in the CPU's caches. The random stream fixes every exploring step's action in
-advance, so with one-word keys and no mask a cursor runs up to AHEAD slots ahead of the
-episode along its exploring steps, prefetching the hash slot of each state it will reach, and
-AHEAD_POOL slots ahead probes that slot (by then in cache) to prefetch the Q-value the step
-will update. Prefetches are hints: the table, and so the plan, are the same without them.
+advance, so (without a mask) a cursor runs up to AHEAD slots ahead of the episode along its
+exploring steps, prefetching the hash slot of each state it will reach, and AHEAD_POOL slots
+ahead probes that slot (by then in cache) to prefetch the Q-value the step will update.
+Prefetches are hints: the table, and so the plan, are the same without them.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from voiopt.solvers.qlearning._qtable import (
     _encode,
     _find,
     _greedy,
+    _home,
     _insert,
     _row,
     room_for_episode,
@@ -139,9 +140,9 @@ def _train(
         clear[f] = ~(((np.uint64(1) << np.uint64(field_width[f])) - np.uint64(1)) << np.uint64(field_shift[f]))
     ps, pclear = np.uint64(field_shift[0]), clear[0]  # the position is in word 0
     inc0 = inc[0]
-    ahead = W == 1 and not masked  # the look-ahead cursor (module docstring)
-    tmask = np.uint64(table.shape[0] - 1)
-    ring_key = np.zeros(RING, np.uint64)
+    ahead = not masked  # the look-ahead cursor (module docstring)
+    la_key = np.zeros(W, np.uint64)  # the cursor's key: la_k0, la_key[1:]
+    ring_key = np.zeros((RING, W), np.uint64)
     ring_k = np.zeros(RING, np.int64)
     ring_tag = np.full(RING, -1, np.int64)
 
@@ -205,6 +206,8 @@ def _train(
             if ahead:  # the look-ahead cursor (module docstring)
                 if cursor <= t + 1:  # the episode has caught up: restart the cursor at s_{t+1}
                     cursor, stuck, la_k0, la_p, la_rng = t + 1, False, k0, p_next, state
+                    for w in range(1, W):
+                        la_key[w] = key[w]
                 while not stuck and cursor < t + 1 + AHEAD and cursor < horizon:
                     la_rng += _GOLDEN
                     if float(_mix(la_rng) >> _S11) * _TWO_M53 >= epsilon:  # greedy: its action waits for the table
@@ -213,18 +216,22 @@ def _train(
                     la_rng += _GOLDEN
                     la_k = int(float(_mix(la_rng) >> _S11) * _TWO_M53 * n_actions[la_p])
                     j = cursor & (RING - 1)
-                    ring_key[j], ring_k[j], ring_tag[j] = la_k0, la_k, tag0 + cursor
+                    ring_k[j], ring_tag[j] = la_k, tag0 + cursor
+                    ring_key[j, 0] = la_k0
+                    for w in range(1, W):
+                        ring_key[j, w] = la_key[w]
+                        la_key[w] += inc[w]
                     la_u, la_next = action_upload[la_p, la_k], action_next[la_p, la_k]
                     la_k0 = ((la_k0 + inc0) & pclear) | (np.uint64(la_next) << ps)
                     if la_u >= 0:
-                        la_k0 = _set_field(la_k0, key, 1 + 2 * la_u, 1, field_word, field_shift, clear)
-                        la_k0 = _set_field(la_k0, key, 2 + 2 * la_u, 1 + la_p, field_word, field_shift, clear)
+                        la_k0 = _set_field(la_k0, la_key, 1 + 2 * la_u, 1, field_word, field_shift, clear)
+                        la_k0 = _set_field(la_k0, la_key, 2 + 2 * la_u, 1 + la_p, field_word, field_shift, clear)
                     la_p = la_next
                     cursor += 1
-                    prefetch(table, np.int64(_mix(la_k0) & tmask))  # _find's first slot for a one-word key
+                    prefetch(table, _home(la_k0, la_key, table))
                 j = (t + 1 + AHEAD_POOL) & (RING - 1)
                 if ring_tag[j] == tag0 + t + 1 + AHEAD_POOL:  # its hash slot was prefetched a few steps ago
-                    s2, f2 = _find(ring_key[j], key, table)
+                    s2, f2 = _find(ring_key[j, 0], ring_key[j], table)
                     if f2:
                         prefetch(pool, _row(table, s2) + ring_k[j])
             r = _slot_reward(aoi, qidx, voi_reward, aoi_reward)

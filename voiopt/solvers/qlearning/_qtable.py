@@ -54,16 +54,22 @@ def _encode(p, aoi, qidx, slot, moves, field_word, field_shift, key):
 
 
 @njit(cache=True, inline="always")
+def _home(k0, key, table):
+    """The first slot _find probes for the key (k0, key[1:])."""
+    h = _mix(k0)
+    for w in range(1, key.shape[0]):
+        h = _mix(h ^ key[w])
+    return np.int64(h & np.uint64(table.shape[0] - 1))
+
+
+@njit(cache=True, inline="always")
 def _find(k0, key, table):
     """(slot, found): where the key is, or the empty slot where it would go. The key's first
     word is k0 (a scalar, so that the common one-word key stays in a register); key[0] is
     ignored and key[1:] are its other words."""
     mask = table.shape[0] - 1
     W = key.shape[0]
-    h = _mix(k0)  # = _hash(key)
-    for w in range(1, W):
-        h = _mix(h ^ key[w])
-    s = np.int64(h & np.uint64(mask))
+    s = _home(k0, key, table)
     while True:
         if table[s, W] == 0:
             return s, False
