@@ -35,12 +35,17 @@ BIG_VOI = from_dict({
 })
 
 
+# Eight sensors: a key of two 64-bit words (the kernel's look-ahead keeps its own copy of both).
+TWO_WORDS = voiopt.generate(8, 12, width=5, height=5, seed=13)
+
+
 @pytest.mark.parametrize("reward,units", [("voi", "bit/s"), ("voi", "bit/s/Hz"), ("aoi", "bit/s")])
 @pytest.mark.parametrize("slot", [False, True])
-@pytest.mark.parametrize("inst", [voiopt.generate(3, 8, width=3, height=3, seed=11), *tiny_instances(2, seed=5), BIG_VOI],
-                         ids=lambda i: i.name)
+@pytest.mark.parametrize("inst", [voiopt.generate(3, 8, width=3, height=3, seed=11), *tiny_instances(2, seed=5), BIG_VOI,
+                                  TWO_WORDS], ids=lambda i: i.name)
 def test_kernel_equals_plain_python_algorithm_1(inst, reward, units, slot):
     model = mdp.build(inst, reward, slot_in_state=slot, reward_units=units)
+    assert model.n_words == (2 if inst is TWO_WORDS else 1)
     q_ref, idx_ref, sched_ref = reference_qlearning(model, 600, seed=42)
     q, idx, sched = _kernel(model, 600, seed=42)
     assert len(q) == len(q_ref) > 10
