@@ -218,7 +218,7 @@ def _train(
                     j = cursor & (RING - 1)
                     ring_k[j], ring_tag[j] = la_k, tag0 + cursor
                     ring_key[j, 0] = la_k0
-                    for w in range(1, W):
+                    for w in range(1, W):  # then the step's own key update, on the cursor's key
                         ring_key[j, w] = la_key[w]
                         la_key[w] += inc[w]
                     la_u, la_next = action_upload[la_p, la_k], action_next[la_p, la_k]
