@@ -9,6 +9,7 @@ import os
 import pytest
 
 import voiopt
+from voiopt import objectives
 from voiopt.cli import main
 from voiopt.experiments import gaps as report
 from voiopt.experiments import runner
@@ -196,8 +197,10 @@ def test_randomised_methods_run_once_per_seed_through_the_cli(tmp_path, nets):
     line = next(line for line in summary.splitlines() if line.startswith("| qlearning |"))
     cells = [c.strip() for c in line.strip("|").split("|")]
     assert cells[1:4] == [str(len(insts)), "5-7", str(3 * len(insts))]
-    assert cells[7:10] == [f"{100 * sum(gaps) / len(gaps):.3g} %", f"{100 * min(gaps):.3g} %", f"{100 * max(gaps):.3g} %"]
+    assert cells[7:10] == [objectives.show_gap(sum(gaps) / len(gaps)), objectives.show_gap(min(gaps)),
+                           objectives.show_gap(max(gaps))]
     assert "bit/s, idle penalty 100" in summary
+    assert "Q-learning: 2000 episodes per run" in summary  # a report made with fewer episodes says so
     # the bit/s/Hz reading is another experiment: not mixed into the same folder
     assert main(["gap-report", str(nets), "--methods", "qlearning", "--reward-units", "bit/s/Hz",
                  "-o", str(out), "--quiet"]) == 2

@@ -8,6 +8,7 @@ import os
 import pytest
 
 import voiopt
+from voiopt import objectives
 from voiopt.generate import case_study_plan
 from voiopt.plan import Plan
 from voiopt.result import Result, load_result
@@ -82,3 +83,15 @@ def test_plan_from_indices_round_trips(case_study, plan):
 
     idx, sched = check_plan(case_study, plan)
     assert Plan.from_indices(case_study, idx, sched) == plan
+
+
+@pytest.mark.parametrize("gap,shown", [(None, "-"), (0.0, "0 %"), (1.357e-16, "0 %"), (-3e-16, "0 %"),
+                                       (6.44e-4, "0.0644 %"), (0.3361, "33.61 %"), (2e-9, "2e-07 %")])
+def test_a_gap_is_shown_as_a_percentage_and_rounding_noise_as_zero(gap, shown):
+    assert objectives.show_gap(gap, 4) == shown
+
+
+def test_the_summary_of_a_proven_optimum_shows_no_rounding_noise_as_its_gap(case_study):
+    r = voiopt.solve(case_study, method="dp", objective="mean-min-voi")
+    assert r.status == "optimal" and r.gap is not None and r.gap < objectives.GAP_NOISE
+    assert "gap 0 %" in r.summary()

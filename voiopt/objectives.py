@@ -85,6 +85,18 @@ def gap(value: float | None, bound: float | None) -> float | None:
     return abs(bound - value) / max(abs(bound), TINY)
 
 
+GAP_NOISE = 1e-12  # relative gaps below this are rounding between a bound and a simulated value
+
+
+def show_gap(g: float | None, digits: int = 3) -> str:
+    """A gap as people read it: a percentage to ``digits`` significant figures, "-" if there is
+    none, and "0 %" below GAP_NOISE (a proven optimum whose bound and simulated value differ
+    in the last bits). Results keep the exact gap."""
+    if g is None:
+        return "-"
+    return "0 %" if abs(g) < GAP_NOISE else f"{100 * g:.{digits}g} %"
+
+
 def metrics_of(aoi: np.ndarray, voi: np.ndarray) -> dict[str, float]:
     """The four objectives of per-slot ages and VoIs (rows t = 0..T; row 0 is not scored)."""
     a, v = aoi[1:], voi[1:]

@@ -120,7 +120,7 @@ class Result:
     def summary(self) -> str:
         val = "-" if self.value is None else f"{self.value:.6g}"
         bnd = "-" if self.bound is None else f"{self.bound:.6g}"
-        gap = "-" if self.gap is None else f"{100 * self.gap:.4g} %"
+        gap = objectives.show_gap(self.gap, 4)
         return (
             f"{self.instance}  {self.method}  {self.objective}: {self.status}  "
             f"value {val}  bound {bnd}  gap {gap}  ({self.runtime_s:.2f} s)"

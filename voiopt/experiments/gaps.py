@@ -104,7 +104,7 @@ def _count_statuses(statuses) -> str:
 
 
 def _pct(v: float | None) -> str:
-    return "-" if v is None else f"{100 * v:.3g} %"
+    return objectives.show_gap(v)
 
 
 def _seed_text(seeds: Sequence[int]) -> str:
@@ -117,7 +117,7 @@ def _seed_text(seeds: Sequence[int]) -> str:
 
 def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instances: int,
                      reward_units: str | None = None, rows: Sequence[dict[str, Any]] = (),
-                     notes: Sequence[str] = ()) -> str:
+                     notes: Sequence[str] = (), episodes: int | None = None) -> str:
     lines = [
         f"# Gap report: {objective}",
         "",
@@ -128,7 +128,8 @@ def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instan
         "and network (one seed is an anecdote).",
     ]
     if reward_units is not None:
-        lines.append(f"Q-learning reward reading: V in {reward_units}, idle penalty 100 (MODEL.md section 7).")
+        lines.append(f"Q-learning: {episodes or 'the paper default (1e6)'} episodes per run; reward reading: V in "
+                     f"{reward_units}, idle penalty 100 (MODEL.md section 7).")
     lines += [
         "",
         "| method | instances | seeds | runs | optimal | errors | not finished normally | mean gap | min gap | max gap | median gap | within 1 % | median runtime |",
@@ -191,7 +192,7 @@ def gap_report(
     n_instances = len({t.instance_name for t in tasks})
     summary = summarise(rows, methods)
     uses_q = any(m in RANDOMISED for m in methods)
-    md = summary_markdown(summary, objective, n_instances, reward_units if uses_q else None, rows, notes)
+    md = summary_markdown(summary, objective, n_instances, reward_units if uses_q else None, rows, notes, episodes)
     with atomic_write(out / "summary.md") as f:
         f.write(md)
     plot_gaps(rows, methods, out / "gaps.png", objective)

@@ -125,7 +125,7 @@ def _line(tab, value: float, bound: float) -> str:
     if not (np.isfinite(value) and np.isfinite(bound)):
         return ""
     best, top = value / tab.to_internal, bound / tab.to_internal
-    return f"  best {best:.6g}  bound {top:.6g}  gap {100 * objectives.gap(best, top):.3g} %"
+    return f"  best {best:.6g}  bound {top:.6g}  gap {objectives.show_gap(objectives.gap(best, top))}"
 
 
 def _restricted(plan: Plan | None, keep: list[int]) -> Plan | None:

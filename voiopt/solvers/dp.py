@@ -197,7 +197,7 @@ def _progress_bound(tab: Tables, inc: float, ub: np.ndarray) -> str:
         return ""
     bound = max(inc, float(ub.max())) if len(ub) else inc
     best, top = _external(tab, inc), _external(tab, bound)
-    return f"  best {best:.6g}  bound {top:.6g}  gap {100 * objectives.gap(best, top):.3g} %"
+    return f"  best {best:.6g}  bound {top:.6g}  gap {objectives.show_gap(objectives.gap(best, top))}"
 
 
 
