@@ -103,6 +103,17 @@ def test_score_rejects_a_forged_value():
         voilib.score(sub)
 
 
+def test_a_result_solved_on_an_edited_copy_is_told_so():
+    edited = LIB["paper-n4-t30-000"].to_dict()
+    edited["sensors"][0]["rho"] = 0.5 if edited["sensors"][0]["rho"] != 0.5 else 0.6
+    r = voiopt.solve(voiopt.instance.from_dict(edited), method="greedy", objective="mean-min-voi").to_dict()
+    with pytest.raises(OptionError, match="is not what its plan gives on VoI-Lib's paper-n4-t30-000 .*another instance"):
+        voilib.score(r)
+    r["instance_sha256"] = voilib.instance_hash(LIB["paper-n4-t30-000"])  # named exactly: the plain message
+    with pytest.raises(OptionError, match=r"by the simulator\): rejected$"):
+        voilib.score(r)
+
+
 def test_score_needs_an_objective_but_no_value():
     sub = _submission("paper-n4-t30-000", "mean-min-voi")
     unstated = {k: v for k, v in sub.items() if k != "value"}

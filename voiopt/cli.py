@@ -333,7 +333,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=_seed, default=0, help="the networks depend on it alone (default 0)")
     s.add_argument("--count", type=_positive, default=1, help=f"how many networks, at most {MAX_COUNT}; more than one needs --out (default 1)")
     s.add_argument("--name", default=None,
-                   help="name prefix of the instances (default nN-tT-seedS, or factory-nN-tT-seedS)")
+                   help="name of the instance, or prefix of a set's (-000, -001, ... follow); default nN-tT-seedS, "
+                        "and for the factory preset factory-nN-tT-seedS alone, factory-seedS in a set")
     s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
     s.add_argument("--overwrite", action="store_true",
                    help="replace files in --out that hold other instances (default: refuse, write nothing)")
@@ -377,7 +378,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_executor_options(s)
     s.add_argument("-o", "--output", required=True, metavar="DIR",
                    help="gaps.csv, summary.md, gaps.png and results/ (one JSON per run) go here; a re-run resumes")
-    s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.add_argument("--quiet", action="store_true", help="print nothing but errors (the files are written all the same)")
 
     s = _command(sub, "figures", "reproduce the paper's figures with the proven optimum", cmd_figures)
     s.add_argument("--out", required=True, metavar="DIR",
@@ -389,7 +390,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="dp limit per network, and milp's in Fig. 8 (default 60)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
-    s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.add_argument("--quiet", action="store_true", help="print nothing but errors (the files are written all the same)")
 
     s = _command(sub, "plot", "draw the trajectory of a result", cmd_plot)
     s.add_argument("result", metavar="RESULT", help="a result JSON (voiopt solve -o)")

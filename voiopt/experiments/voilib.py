@@ -214,8 +214,11 @@ def score(result: dict[str, Any], source: str = "RESULT") -> dict[str, Any]:
     if stated is not None:
         if isinstance(stated, bool) or not isinstance(stated, (int, float)) or not (
                 abs(stated - value) <= VALUE_RTOL * max(abs(stated), abs(value), 1e-300)):
-            raise OptionError(f"{source}: value: {stated!r} is not what its plan gives ({value!r} by the simulator): "
-                              "rejected")
+            by_name = "" if result.get("instance_sha256") is not None else (
+                "; was it solved on another instance of that name? (a result's instance_sha256 names the instance "
+                "exactly)")
+            raise OptionError(f"{source}: value: {stated!r} is not what its plan gives on VoI-Lib's {name} "
+                              f"({value!r} by the simulator): rejected{by_name}")
     cert = certificates()["instances"].get(name, {}).get("certificates", {}).get(objective)
     row = {"result": source, "instance": name, "objective": objective, "value": value,
            "certified": show_certificate(cert), "gap_to_bound": None, "gap_to_best": None}
