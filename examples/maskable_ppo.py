@@ -1,6 +1,6 @@
 """Train sb3-contrib's MaskablePPO on VoI-Lib instances and print its certified gap.
 
-    pip install -e '.[rl,sb3]'          # on a CPU-only machine: pip install torch==2.13.0 first
+    pip install -e '.[rl,sb3]'          # CPU only: first pip install torch==2.13.0 --index-url https://download.pytorch.org/whl/cpu
     python examples/maskable_ppo.py --steps 100000
 
 The policy sees the env's Dict observation and its action masks; the reward is the per-slot

@@ -194,3 +194,9 @@ def test_certify_only_updates_those_entries_and_keeps_the_others(tmp_path, capsy
             assert made["instances"][name] == entry
     fresh = made["instances"]["paper-n3-t10-000"]["certificates"]["max-aoi"]
     assert fresh["checks"] != CERTS["instances"]["paper-n3-t10-000"]["certificates"]["max-aoi"]["checks"]  # re-run
+
+
+def test_an_open_certificate_is_shown_with_digits_enough_to_tell_its_ends_apart():
+    assert voilib.show_certificate({"status": "optimal", "value": 38459.7123, "bound": 38459.7123}) == "38459.7"
+    assert voilib.show_certificate({"status": "feasible", "value": 38459.71, "bound": 38459.74}) == "[38459.71, 38459.74]"
+    assert voilib.show_certificate({"status": "feasible", "value": 31.05, "bound": 51.5}) == "[31.05, 51.5]"

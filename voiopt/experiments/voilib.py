@@ -148,7 +148,10 @@ def show_certificate(cert: dict[str, Any] | None) -> str:
     if cert["status"] == "optimal":
         return f"{cert['value']:.6g}"
     lo, hi = sorted((cert["value"], cert["bound"]))
-    return f"[{lo:.6g}, {hi:.6g}]"
+    digits = 6  # as many as it takes to tell an open interval from a point
+    while digits < 17 and f"{lo:.{digits}g}" == f"{hi:.{digits}g}" and lo != hi:
+        digits += 1
+    return f"[{lo:.{digits}g}, {hi:.{digits}g}]"
 
 
 def table_rows() -> list[dict[str, Any]]:
