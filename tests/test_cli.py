@@ -329,3 +329,18 @@ def test_bench_export_keeps_an_edited_copy_unless_told(capsys, tmp_path):
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # nothing written
     assert run(capsys, "bench", "export", "--out", str(tmp_path), "--overwrite")[0] == 0
     assert json.loads(mine.read_text())["horizon"] == edited["horizon"] - 1
+
+
+def test_plot_finds_the_instance_beside_the_result_or_in_the_folder_above(capsys, tmp_path, monkeypatch):
+    dock = voiopt.load(ROOT / "instances" / "dock.json")
+    (tmp_path / "report" / "results").mkdir(parents=True)
+    voiopt.save(dock, tmp_path / "report" / "dock.json")
+    result = tmp_path / "report" / "results" / "dock__greedy.json"
+    voiopt.solve(dock, method="greedy").save(result)
+    monkeypatch.chdir(tmp_path)  # no ./instances here
+    assert run(capsys, "plot", str(result), "-o", "p.png")[0] == 0 and (tmp_path / "p.png").stat().st_size > 1000
+    (tmp_path / "report" / "dock.json").unlink()
+    voiopt.solve(dock, method="greedy").save(tmp_path / "dock.json")  # a result named like the instance: not taken for it
+    for path in (result, tmp_path / "dock.json"):
+        code, _, err = run(capsys, "plot", str(path), "-o", "q.png")
+        assert code == 2 and "--instance: give the instance of result 'dock' (no dock.json beside" in one_line_error(err)

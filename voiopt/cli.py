@@ -250,7 +250,7 @@ def cmd_plot(args) -> int:
     check_output_file(args.output)
     result = voiopt.load_result(args.result)
     try:
-        plot_result(result, instance_for(result, args.instance), args.output)
+        plot_result(result, instance_for(result, args.instance, args.result), args.output)
     except PlanError as e:  # the result's plan breaks a rule of its instance: name the file
         raise PlanError(f"{args.result}: {e}") from None
     out.print(f"wrote {args.output}", markup=False)
@@ -394,7 +394,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = _command(sub, "plot", "draw the trajectory of a result", cmd_plot)
     s.add_argument("result", metavar="RESULT", help="a result JSON (voiopt solve -o)")
-    s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: instances/NAME.json")
+    s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: NAME.json beside the result, in the folder above it, or in ./instances")
     s.add_argument("-o", "--output", required=True, metavar="PNG", help="the image to write")
 
     s = _command(sub, "methods", "list the solution methods", lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])

@@ -240,16 +240,22 @@ def case_study_figures(inst: Instance, results: dict[str, Result], out: Path) ->
     return [out / "fig3_case_study.png", out / "fig3_case_study.csv", out / "fig4_voi_over_time.png", out / "fig4_voi_over_time.csv"]
 
 
-def instance_for(result: Result, instance_path: str | None) -> Instance:
-    """The instance a result belongs to: given, or instances/NAME.json, or the built-in case study."""
+def instance_for(result: Result, instance_path: str | None, result_path: str | None = None) -> Instance:
+    """The instance a result belongs to: given, or the first NAME.json beside the result file,
+    in the folder above it, or in ./instances, or the built-in case study."""
+    name = f"{result.instance}.json"
+    folders = [] if result_path is None else [Path(result_path).parent, Path(result_path).parent.parent]
+    found = [f / name for f in [*folders, Path("instances")]
+             if (f / name).is_file() and (result_path is None or not (f / name).samefile(result_path))]
     if instance_path:
         inst = instance_mod.load(instance_path)
-    elif Path("instances", f"{result.instance}.json").is_file():
-        inst = instance_mod.load(Path("instances", f"{result.instance}.json"))
+    elif found:
+        inst = instance_mod.load(found[0])
     elif result.instance == "case-study":
         inst = case_study()
     else:
-        raise OptionError(f"--instance: give the instance of result {result.instance!r} (not found as instances/{result.instance}.json)")
+        raise OptionError(f"--instance: give the instance of result {result.instance!r} (no {name} beside the result, "
+                          "in the folder above it or in ./instances)")
     if inst.name != result.instance:
         raise OptionError(f"--instance: the result is for {result.instance!r}, the instance is {inst.name!r}")
     return inst
