@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/qlearning_phases.py [--network K] [--episodes 1000000] [--chunks 20]
 
 One network of the speed benchmark (benchmarks/qlearning_speed.py: random N = 4, T = 30,
-generator seed 0, or --sensors/--horizon/--size for others), the paper's Algorithm 1 on a hash
+generator seed 0; or others by --sensors, --horizon, --size and --network-seed), the paper's Algorithm 1 on a hash
 table sized in advance (no growth, no progress bar, no rollouts), timed in equal chunks of
 episodes: CPU seconds and million steps per second per chunk, beside epsilon and the states
 stored so far. Exploring steps (epsilon near 1) reach new and rarely visited states, so they
@@ -34,6 +34,7 @@ from voiopt.solvers import qlearning as ql  # noqa: E402
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--network", type=int, default=0, help="which of the generated networks (default 0)")
+    ap.add_argument("--network-seed", type=int, default=0, help="the generator's seed (default 0)")
     ap.add_argument("--sensors", type=int, default=4)
     ap.add_argument("--horizon", type=int, default=30)
     ap.add_argument("--size", type=float, default=5.0, help="width and height in metres (default 5)")
@@ -43,7 +44,7 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0, help="Q-learning's seed (default 0)")
     args = ap.parse_args()
 
-    inst = voiopt.generate_set(args.network + 1, seed=0, n_sensors=args.sensors, horizon=args.horizon,
+    inst = voiopt.generate_set(args.network + 1, seed=args.network_seed, n_sensors=args.sensors, horizon=args.horizon,
                                width=args.size, height=args.size)[args.network]
     model = mdp.build(inst)
     ql.train(model, ql.QTable(model, 0.0, 1e8), 10, np.array([1.0]), 0.1, ql.BETA, ql.GAMMA,
