@@ -195,3 +195,7 @@ def watched_all(stop: Stop, kernel, calls: list[tuple], threads: int) -> list:
         raise RuntimeError("dp: a kernel failed in its thread")
     return results
 
+
+def progress_text(best: float, bound: float) -> str:
+    """Best value, bound and gap in the objective's units, as dp's progress bars show them."""
+    return f"  best {best:.6g}  bound {bound:.6g}  gap {objectives.show_gap(objectives.gap(best, bound))}"

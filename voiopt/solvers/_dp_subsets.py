@@ -21,6 +21,7 @@ from voiopt.instance import Instance
 from voiopt.plan import Plan
 from voiopt.progress import progress_bar
 from voiopt.simulate import simulate
+from voiopt.solvers._dp_shared import progress_text
 from voiopt.stop import Stop
 
 SHARE = 0.3  # of the time left that the subsets may take (the pattern databases need little of it)
@@ -124,8 +125,7 @@ def _line(tab, value: float, bound: float) -> str:
     """Best value, bound and gap in the objective's units, for the progress bar."""
     if not (np.isfinite(value) and np.isfinite(bound)):
         return ""
-    best, top = value / tab.to_internal, bound / tab.to_internal
-    return f"  best {best:.6g}  bound {top:.6g}  gap {objectives.show_gap(objectives.gap(best, top))}"
+    return progress_text(value / tab.to_internal, bound / tab.to_internal)
 
 
 def _restricted(plan: Plan | None, keep: list[int]) -> Plan | None:

@@ -29,6 +29,7 @@ from voiopt.solvers._dp_shared import (
     PAIR_TABLE_BYTES,
     Tables,
     build_tables,
+    progress_text,
     table_bytes,
     watched_all,
 )
@@ -196,8 +197,7 @@ def _progress_bound(tab: Tables, inc: float, ub: np.ndarray) -> str:
     if not np.isfinite(inc):
         return ""
     bound = max(inc, float(ub.max())) if len(ub) else inc
-    best, top = _external(tab, inc), _external(tab, bound)
-    return f"  best {best:.6g}  bound {top:.6g}  gap {objectives.show_gap(objectives.gap(best, top))}"
+    return progress_text(_external(tab, inc), _external(tab, bound))
 
 
 
