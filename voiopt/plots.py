@@ -245,12 +245,13 @@ def instance_for(result: Result, instance_path: str | None, result_path: str | N
     in the folder above it, or in ./instances, or the built-in case study."""
     name = f"{result.instance}.json"
     folders = [] if result_path is None else [Path(result_path).parent, Path(result_path).parent.parent]
-    found = [f / name for f in [*folders, Path("instances")]
-             if (f / name).is_file() and (result_path is None or not (f / name).samefile(result_path))]
+    found = None if instance_path else next(
+        (f / name for f in [*folders, Path("instances")]
+         if (f / name).is_file() and (result_path is None or not (f / name).samefile(result_path))), None)
     if instance_path:
         inst = instance_mod.load(instance_path)
-    elif found:
-        inst = instance_mod.load(found[0])
+    elif found is not None:
+        inst = instance_mod.load(found)
     elif result.instance == "case-study":
         inst = case_study()
     else:
