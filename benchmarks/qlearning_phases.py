@@ -20,15 +20,12 @@ import argparse
 import os
 import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-import voiopt  # noqa: E402
-from voiopt.models import mdp  # noqa: E402
-from voiopt.solvers import qlearning as ql  # noqa: E402
+import voiopt
+from voiopt.models import mdp
+from voiopt.solvers import qlearning as ql
 
 
 def main() -> int:
@@ -47,8 +44,7 @@ def main() -> int:
     inst = voiopt.generate_set(args.network + 1, seed=args.network_seed, n_sensors=args.sensors, horizon=args.horizon,
                                width=args.size, height=args.size)[args.network]
     model = mdp.build(inst)
-    ql.train(model, ql.QTable(model, 0.0, 1e8), 10, np.array([1.0]), 0.1, ql.BETA, ql.GAMMA,
-             np.array([1], dtype=np.uint64))  # compile, or load numba's cache, outside the timing
+    ql.warm_up()  # compile, or load numba's cache, outside the timing
     table = ql.QTable(model, 0.0, None, slots=args.slots)
     eps, rng = np.array([1.0]), np.array([ql.seed_state(args.seed)], dtype=np.uint64)
     per_chunk = args.episodes // args.chunks
