@@ -125,7 +125,7 @@ def _advance(points, moves, aoi, qidx, nxt, up, counted):
     return idle
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
            starts, initial_aoi, n_actions, action_upload, action_next, voi_reward, field_word, field_shift,
            table, tablef, pool, counts, rng, masked, alive, radix, counted, budgets, max_joint):

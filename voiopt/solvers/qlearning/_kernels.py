@@ -107,7 +107,7 @@ def _masked_draw(x, p, t, moves, n, horizon, action_next, to_end, budget):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _train(
     n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
     start, initial_aoi, n_actions, action_upload, action_next, voi_reward,

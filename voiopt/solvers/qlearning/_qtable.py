@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from voiopt import _prefault
 from voiopt._jit import njit
 from voiopt.errors import OptionError
 from voiopt.models import mdp as mdp_mod
@@ -109,7 +110,7 @@ def _insert(table, tablef, s, k0, key, pool, used, n, q_init):
         pool[used + j] = q_init
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rehash(old, table):
     """Insert every entry of old into the empty, larger table (whole slots, word by word)."""
     W = table.shape[1] - 2
@@ -150,6 +151,23 @@ class QTable:
         except MemoryError:  # no address space to spare: grow by copying
             self._reserved = np.empty(pool_len, np.float64)
         self.pool = self._reserved[:pool_len]
+        self._next = None  # the next, doubled table, allocated and backed ahead of time (_prepare)
+        self._backed = 0  # how much of the pool has been backed ahead of time
+        self._prepare()
+
+    def _prepare(self) -> None:
+        """Have the pages the kernel writes next backed on another core (voiopt/_prefault.py):
+        the pool a quarter of its use (at least 32 MB) ahead of it, and once the table is 65%
+        full (of at most 70%), the doubled table that grow() will rehash into, if old and new
+        fit the memory limit together, as grow() counts them. Not earlier: a run that ends
+        before that growth would have allocated and backed it in vain."""
+        ahead = min(len(self.pool), int(self.counts[1]) + max(int(self.counts[1]) // 4, 4 << 20))
+        if ahead > self._backed and _prefault.populate(self._reserved, self._backed, ahead):
+            self._backed = ahead
+        if self._next is None and self.counts[0] > 0.65 * len(self.table) \
+                and self.nbytes + 2 * self.table.nbytes <= self.max_bytes:
+            self._next = np.zeros((2 * len(self.table), self.table.shape[1]), np.uint64)
+            _prefault.populate(self._next)
 
     def _margin(self) -> int:
         return (self.model.horizon + 1) * self.model.max_actions
@@ -176,14 +194,17 @@ class QTable:
         if self.nbytes + new_bytes > self.max_bytes:  # old and new arrays live together briefly
             return False
         if slots != len(self.table):
-            table = np.zeros((slots, self.table.shape[1]), np.uint64)
+            table = self._next if self._next is not None and len(self._next) == slots else None
+            if table is None:
+                table = np.zeros((slots, self.table.shape[1]), np.uint64)
             _rehash(self.table, table)
-            self.table = table
+            self.table, self._next = table, None
         if pool_len > len(self._reserved):
             reserved = np.empty(pool_len, np.float64)
             reserved[: len(self.pool)] = self.pool
             self._reserved = reserved
         self.pool = self._reserved[:pool_len]
+        self._prepare()
         return True
 
     def run(self, n_episodes: int, chunk) -> tuple[int, bool]:
@@ -193,6 +214,7 @@ class QTable:
         done = 0
         while done < n_episodes:
             done += chunk(n_episodes - done)
+            self._prepare()
             if done < n_episodes and not self.grow():
                 return done, False
         return done, True
