@@ -223,3 +223,32 @@ def test_dp_through_the_pattern_databases_equals_the_brute_force(monkeypatch):
         assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
         built += sum(run["built"] for run in r.solver.get("patterns", []))
     assert built >= 5, built
+
+
+def test_a_pattern_bounds_a_label_only_through_kept_labels_of_its_ranks_and_moves_left():
+    """The matching rule of a pattern database, on a hand-made pattern: a kept S-label bounds a
+    label of the whole network only if its ranks, and with a budget its moves left, are at least
+    the label's; the bound is the label's value plus the least such future, -inf if there is
+    none. Two kept labels at point 1 with the same ranks: 5 moves left and future 10, 1 move left
+    and future 3. (The moves-left lane is what a random network seldom exercises.)"""
+    from voiopt.solvers._dp_pattern import Pattern
+    from voiopt.stop import Stop
+
+    collapsed = 9
+
+    def bound(lane, moves, ranks=(1, 1, 0), point=1, ub=np.inf, t=0):
+        pattern = Pattern(np.array([0, 1]), [np.array([[2, 2], [2, 2]], np.int16)], [np.array([5, 1], np.int16)],
+                          [np.array([0, 0, 2])], [np.array([10.0, 3.0])], lane, 0.0, 2)
+        return pattern.bound(Stop(), t, np.array([ranks], np.int16), np.array([1.0]), np.array([point], np.int32),
+                             np.array([moves], np.int16), np.array([ub]), collapsed)[0]
+
+    assert bound(lane=1, moves=3) == 11.0  # only the label with 5 moves left has as many
+    assert bound(lane=1, moves=1) == 4.0  # both have: the least future
+    assert bound(lane=1, moves=6) == -np.inf  # none has: no completion beats the threshold
+    assert bound(lane=0, moves=6) == 4.0  # no budget: moves left do not count
+    assert bound(lane=0, moves=1, ranks=(3, 1, 0)) == -np.inf  # no kept label has rank 3 of sensor 0
+    assert bound(lane=0, moves=1, ranks=(1, 1, 7)) == 4.0  # sensor 2 is not in S
+    assert bound(lane=0, moves=1, point=0) == -np.inf  # no kept label at point 0
+    assert bound(lane=0, moves=1, ranks=(collapsed, 1, 0)) == np.inf  # a collapsed sensor of S: bound kept
+    assert bound(lane=0, moves=1, ub=2.5) == 2.5  # never looser than the bound it had
+    assert bound(lane=0, moves=1, t=1) == -np.inf  # a slot the subset's pass never reached
