@@ -157,6 +157,11 @@ def test_bad_options_exit_2(capsys, tmp_path, nets, argv, message):
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1
 
 
+def test_the_report_folder_is_also_given_as_out_like_the_other_folder_commands(tmp_path, nets):
+    assert main(["gap-report", str(nets), "--methods", "greedy", "--out", str(tmp_path / "r"), "--quiet"]) == 0
+    assert len(read_rows(tmp_path / "r" / "gaps.csv")) == 3
+
+
 def test_missing_instances_exit_2(capsys, tmp_path):
     code = main(["gap-report", str(tmp_path / "none"), "-o", str(tmp_path), "--quiet"])
     assert code == 2 and "no such file or folder" in capsys.readouterr().err

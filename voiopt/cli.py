@@ -376,8 +376,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="per run (default: none)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
-    s.add_argument("-o", "--output", required=True, metavar="DIR",
-                   help="gaps.csv, summary.md, gaps.png and results/ (one JSON per run) go here; a re-run resumes")
+    s.add_argument("-o", "--output", "--out", dest="output", required=True, metavar="DIR",
+                   help="gaps.csv, summary.md, gaps.png and results/ (one JSON per run) go here; a re-run resumes "
+                        "(--out, as for figures and generate, says the same)")
     s.add_argument("--quiet", action="store_true", help="print nothing but errors (the files are written all the same)")
 
     s = _command(sub, "figures", "reproduce the paper's figures with the proven optimum", cmd_figures)
