@@ -86,3 +86,12 @@ def test_forked_child_gets_its_own_thread():
     assert out.get(timeout=30) is True  # without a thread of its own the child's flush would time out
     child.join(30)
     assert child.exitcode == 0
+
+
+@pytest.mark.skipif(not SUPPORTED, reason="MADV_POPULATE_WRITE needs Linux 5.14 or later")
+def test_a_cancelled_job_stops_early_and_lets_go_of_its_array():
+    a = np.empty(512 * MB // 8)  # 64 pieces: far more than the thread backs before the cancel
+    job = _prefault.populate(a)
+    job.cancel()
+    assert _prefault.flush(30)
+    assert job.owner is None and job.start < job.end

@@ -22,7 +22,7 @@ import numpy as np
 
 MADV_POPULATE_WRITE = 23
 PAGE = 4096
-PIECE = 8 << 20  # bytes per madvise call: a job can be dropped between pieces
+PIECE = 8 << 20  # bytes per madvise call: a job can be cancelled between pieces
 
 _libc = None
 _jobs: queue.SimpleQueue | None = None
@@ -47,26 +47,39 @@ def _madvise():
     return _libc or None
 
 
+class Job:
+    """A range scheduled for backing; ``cancel()`` stops it between pieces and lets go of its array."""
+
+    def __init__(self, owner: np.ndarray, start: int, end: int) -> None:
+        self.owner, self.start, self.end = owner, start, end
+        self.cancelled = False
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+
 def _worker(jobs: queue.SimpleQueue) -> None:
     madvise = _madvise()
     while True:
-        owner, start, end = jobs.get()
-        if isinstance(owner, threading.Event):  # flush()
-            owner.set()
+        job = jobs.get()
+        if isinstance(job, threading.Event):  # flush()
+            job.set()
             continue
-        while start < end:
-            n = min(PIECE, end - start)
-            if madvise(start, n, MADV_POPULATE_WRITE) != 0:  # out of memory: the pages are backed on first write
+        while job.start < job.end and not job.cancelled:
+            n = min(PIECE, job.end - job.start)
+            if madvise(job.start, n, MADV_POPULATE_WRITE) != 0:  # out of memory: the pages are backed on first write
                 break
-            start += n
-        del owner
+            job.start += n
+        job.owner = None
+        del job
 
 
-def populate(array: np.ndarray, first: int = 0, last: int | None = None) -> bool:
-    """Back the pages of ``array.reshape(-1)[first:last]`` in a background thread; returns
-    whether that was scheduled. ``array`` must be contiguous; it is kept alive until done."""
+def populate(array: np.ndarray, first: int = 0, last: int | None = None) -> Job | None:
+    """Back the pages of ``array.reshape(-1)[first:last]`` in a background thread; returns the
+    job (None if nothing was scheduled). ``array`` must be contiguous; the job holds it until it
+    is done or cancelled."""
     if _madvise() is None or not array.flags.c_contiguous:
-        return False
+        return None
     flat = array.reshape(-1)
     last = len(flat) if last is None else min(last, len(flat))
     start = flat.ctypes.data + max(first, 0) * flat.itemsize
@@ -74,9 +87,10 @@ def populate(array: np.ndarray, first: int = 0, last: int | None = None) -> bool
     start += -start % PAGE  # whole pages inside the range only
     end -= end % PAGE
     if end <= start:
-        return False
-    _queue().put((array, start, end))
-    return True
+        return None
+    job = Job(array, start, end)
+    _queue().put(job)
+    return job
 
 
 def flush(timeout: float | None = None) -> bool:
@@ -84,7 +98,7 @@ def flush(timeout: float | None = None) -> bool:
     if _madvise() is None:
         return True
     done = threading.Event()
-    _queue().put((done, 0, 0))
+    _queue().put(done)
     return done.wait(timeout)
 
 

@@ -150,6 +150,79 @@ def test_stops_cleanly_at_the_memory_limit_and_time_limit():
     assert r.status == "time_limit" and "time limit" in r.solver["stopped"]
 
 
+@pytest.mark.parametrize("limit", [0.004, 0.008, 0.016])
+def test_what_the_table_holds_stays_within_the_memory_limit(monkeypatch, limit):
+    """Table, pool and the doubled table allocated ahead of a growth (QTable._prepare), together,
+    after every growth and every preparation; and nothing allocated ahead is kept after training."""
+    from voiopt.solvers.qlearning import _qtable
+
+    held, prepared, tables = [], [], []
+    real_grow, real_prepare = _qtable.QTable.grow, _qtable.QTable._prepare
+
+    def measure(table):
+        tables.append(table)
+        spare = 0 if table._next is None else table._next.nbytes
+        prepared.append(spare > 0)
+        held.append(table.table.nbytes + table.pool.nbytes + spare)
+
+    def grow(self):
+        ok = real_grow(self)
+        measure(self)
+        return ok
+
+    def prepare(self):
+        real_prepare(self)
+        measure(self)
+
+    monkeypatch.setattr(_qtable.QTable, "grow", grow)
+    monkeypatch.setattr(_qtable.QTable, "_prepare", prepare)
+    r = ql.solve(voiopt.generate(4, 30, seed=0), episodes=200_000, memory_limit=limit)
+    assert r.status == "memory_limit"
+    assert any(prepared), "no table was allocated ahead: this would test nothing"
+    assert max(held) <= limit * 1e9, (max(held), limit * 1e9)
+    assert tables[-1]._next is None
+
+
+def test_an_interrupted_growth_leaves_no_filled_table_to_reuse(monkeypatch):
+    """Ctrl-C arrives as the rehash into the table allocated ahead returns (a KeyboardInterrupt
+    out of ql.train, as in a notebook); training on afterwards gives the table and plan of a run
+    never interrupted, not one whose next growth rehashes into a filled table."""
+    from voiopt.solvers.qlearning import _qtable
+
+    model = mdp.build(voiopt.generate(3, 8, width=3, height=3, seed=11))
+    episodes = 600  # on the broken code: a table with more keys than states (longer runs hang)
+    plain = _kernel(model, episodes, seed=42)
+
+    real_rehash, real_prepare = _qtable._rehash, _qtable.QTable._prepare
+    ahead, interrupts = [], []
+
+    def prepare(self):
+        real_prepare(self)
+        if self._next is not None:
+            ahead.append(self._next)
+
+    def rehash(old, new):
+        real_rehash(old, new)
+        if not interrupts and any(new is a for a in ahead) and len(new) >= 256:
+            interrupts.append(len(new))
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(_qtable.QTable, "_prepare", prepare)
+    monkeypatch.setattr(_qtable, "_rehash", rehash)
+    table = ql.QTable(model, 0.0, 100 * 2**20, slots=16)
+    eps, rng = np.array([1.0]), np.array([ql.seed_state(42)], dtype=np.uint64)
+    done = 0
+    while done < episodes:
+        try:
+            done += ql.train(model, table, episodes - done, eps, 1.0 / episodes, ql.BETA, ql.GAMMA, rng)[0]
+        except KeyboardInterrupt:
+            done = int(round((1.0 - eps[0]) * episodes))
+    assert interrupts, "no growth was interrupted"
+    assert table.n_states == int((table.table[:, -2] != 0).sum())
+    idx, sched = ql.rollout(model, table)
+    assert (table.to_dict(), idx.tolist(), sched.tolist()) == plain
+
+
 @pytest.mark.parametrize("option,value", [
     ("episodes", 0), ("episodes", 1.5), ("seed", -1), ("beta", 0.0), ("gamma", 1.5),
     ("q_init", float("nan")), ("time_limit", 0), ("memory_limit", 0), ("slot_in_state", 1),

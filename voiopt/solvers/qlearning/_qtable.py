@@ -152,22 +152,33 @@ class QTable:
             self._reserved = np.empty(pool_len, np.float64)
         self.pool = self._reserved[:pool_len]
         self._next = None  # the next, doubled table, allocated and backed ahead of time (_prepare)
+        self._next_job = None
         self._backed = 0  # how much of the pool has been backed ahead of time
         self._prepare()
 
     def _prepare(self) -> None:
         """Have the pages the kernel writes next backed on another core (voiopt/_prefault.py):
         the pool a quarter of its use (at least 32 MB) ahead of it, and once the table is 65%
-        full (of at most 70%), the doubled table that grow() will rehash into, if old and new
-        fit the memory limit together, as grow() counts them. Not earlier: a run that ends
-        before that growth would have allocated and backed it in vain."""
+        full (of at most 70%), the doubled table that grow() will rehash into, if it fits the
+        memory limit beside the table and the pool. Not earlier: a run that ends before that
+        growth would have allocated and backed it in vain (drop_next lets it go)."""
         ahead = min(len(self.pool), int(self.counts[1]) + max(int(self.counts[1]) // 4, 4 << 20))
         if ahead > self._backed and _prefault.populate(self._reserved, self._backed, ahead):
             self._backed = ahead
         if self._next is None and self.counts[0] > 0.65 * len(self.table) \
                 and self.nbytes + 2 * self.table.nbytes <= self.max_bytes:
-            self._next = np.zeros((2 * len(self.table), self.table.shape[1]), np.uint64)
-            _prefault.populate(self._next)
+            try:
+                self._next = np.zeros((2 * len(self.table), self.table.shape[1]), np.uint64)
+            except MemoryError:  # only ever a head start: growth allocates it when it must
+                return
+            self._next_job = _prefault.populate(self._next)
+
+    def drop_next(self) -> None:
+        """Let go of the table allocated ahead of a growth (at the end of training, or when it
+        does not fit beside a growth of the pool)."""
+        if self._next_job is not None:
+            self._next_job.cancel()
+        self._next, self._next_job = None, None
 
     def _margin(self) -> int:
         return (self.model.horizon + 1) * self.model.max_actions
@@ -191,14 +202,17 @@ class QTable:
             pool_len *= 2
         new_bytes = (slots * self.table.shape[1] if slots != len(self.table) else 0) * 8
         new_bytes += (pool_len if pool_len != len(self.pool) else 0) * 8
+        if self._next is not None and slots == len(self.table) and \
+                self.nbytes + new_bytes + self._next.nbytes > self.max_bytes:
+            self.drop_next()  # the table allocated ahead does not fit beside this growth of the pool
         if self.nbytes + new_bytes > self.max_bytes:  # old and new arrays live together briefly
             return False
         if slots != len(self.table):
-            table = self._next if self._next is not None and len(self._next) == slots else None
-            if table is None:
+            table, self._next, self._next_job = self._next, None, None  # before the rehash: an interrupt
+            if table is None or len(table) != slots:  # in it must not leave a filled table to reuse
                 table = np.zeros((slots, self.table.shape[1]), np.uint64)
             _rehash(self.table, table)
-            self.table, self._next = table, None
+            self.table = table
         if pool_len > len(self._reserved):
             reserved = np.empty(pool_len, np.float64)
             reserved[: len(self.pool)] = self.pool

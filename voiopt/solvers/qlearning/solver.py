@@ -151,6 +151,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
                         bar.console.print(f"[yellow]{method}: {stop.describe()} after {done} of {episodes} "
                                           "episodes; returning the greedy plan so far")
                     break
+        table.drop_next()  # a table allocated ahead of a growth that did not come
         idx, sched = rollout_fn(model, table)
     solver = {
         "reward": reward, "reward_units": reward_units, "episodes": episodes, "episodes_run": done, "seed": seed,
