@@ -1,6 +1,7 @@
 """What the one-robot programme (dp.py) and the two-robot one (fleet_dp.py) share: the network
 compiled into ranks and worth tables (they depend on the sensors and the lattice, not on a
-robot), and the watched call of a nogil kernel that honours the stop rule."""
+robot), a slot's work cut into kernel calls, and the watched call of a nogil kernel that
+honours the stop rule."""
 
 from __future__ import annotations
 
@@ -152,6 +153,16 @@ def build_tables(instance: Instance, objective: str) -> Tables:
 
 
 WATCH_S = 0.05  # how often the stop rule is checked while a kernel runs
+
+
+def run_of(work: np.ndarray, lo: int, size: float) -> tuple[int, float]:
+    """(hi, total): the longest run lo .. hi-1 of ``work`` (one entry at least) whose total is at
+    most ``size``; the target points (or pairs of points) of one kernel call."""
+    hi, total = lo + 1, work[lo]
+    while hi < len(work) and total + work[hi] <= size:
+        total += work[hi]
+        hi += 1
+    return hi, total
 
 
 def watched(stop: Stop, kernel, *args):

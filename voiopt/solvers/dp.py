@@ -30,6 +30,7 @@ from voiopt.solvers._dp_shared import (
     Tables,
     build_tables,
     progress_text,
+    run_of,
     table_bytes,
     watched_all,
 )
@@ -63,12 +64,9 @@ def _chunks(work: np.ndarray, threads: int) -> list[tuple[int, int]]:
     least one point): one kernel call each. With threads, smaller ones, so that a slot gives
     each thread about four to do."""
     size = CHUNK_WORK if threads == 1 else min(CHUNK_WORK, max(1, int(work.sum()) // (4 * threads)))
-    chunks, n, q_lo = [], len(work), 0
-    while q_lo < n:
-        q_hi, total = q_lo + 1, work[q_lo]
-        while q_hi < n and total + work[q_hi] <= size:
-            total += work[q_hi]
-            q_hi += 1
+    chunks, q_lo = [], 0
+    while q_lo < len(work):
+        q_hi, _ = run_of(work, q_lo, size)
         chunks.append((q_lo, q_hi))
         q_lo = q_hi
     return chunks

@@ -23,7 +23,7 @@ from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
 from voiopt.solvers import DP_MAX_ROBOTS
-from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, table_bytes, watched
+from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, run_of, table_bytes, watched
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, require_memory
 from voiopt.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, watch
 
@@ -133,11 +133,7 @@ def search(jt: Joint, incumbent: float, stop: Stop, *, beam: int = 0, uploads: b
             while b_lo < n * n:
                 used = tab.nbytes + stored + 2 * ranks.nbytes + sum(p[0].nbytes + p[1].nbytes + p[2].nbytes for p in parts)
                 room = np.inf if stop.memory_bytes is None else (stop.memory_bytes - used) / (CANDIDATE_BYTES + 4 * N)
-                b_hi = b_lo + 1
-                total = work[b_lo]
-                while b_hi < n * n and total + work[b_hi] <= min(CHUNK_WORK, room):
-                    total += work[b_hi]
-                    b_hi += 1
+                b_hi, total = run_of(work, b_lo, min(CHUNK_WORK, room))
                 if total > room:  # one bucket's children alone would pass the memory limit: stop before allocating
                     stop.request(MEMORY_LIMIT)
                     return _incomplete(out, ub, keep, t)
