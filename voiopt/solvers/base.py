@@ -1,5 +1,6 @@
 """What every solver shares: the checks of the common options (time_limit in seconds,
-memory_limit in GB, seed, threads) and the Incumbent, the best simulated plan so far.
+memory_limit in GB, seed, threads), the Incumbent, the best simulated plan so far, and the
+once-per-process warm-up of a solver's kernels.
 
 A solver is a function ``solve(instance, objective, *, progress=False, <options>) -> Result``
 registered in solvers/__init__.py. It stops by the rule of voiopt.stop and returns its
@@ -9,6 +10,8 @@ incumbent; the Result's value is always the simulator's.
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -86,3 +89,22 @@ class Incumbent:
     @property
     def plan(self) -> Plan | None:
         return None if self.idx is None else Plan.from_indices(self.instance, self.idx, self.sched)
+
+
+_WARM: set[str] = set()  # the families of kernels warmed up in this process
+
+
+def warm_up_once(family: str, load: Callable[[], object]) -> float:
+    """Compile (or load from numba's cache) a family of kernels once per process, by ``load()``
+    running them on a tiny instance, so that a solve's runtime_s and time limit measure the
+    work alone; returns the seconds this took (0 when already done). The family counts as warm
+    from the start, so that ``load`` may call the very solver it warms up."""
+    if family in _WARM:
+        return 0.0
+    _WARM.add(family)
+    from voiopt import _numba_start
+
+    t0 = time.perf_counter()
+    _numba_start.start()
+    load()
+    return time.perf_counter() - t0

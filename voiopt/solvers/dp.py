@@ -14,8 +14,8 @@ from functools import partial
 
 import numpy as np
 
-from voiopt import _numba_start, objectives
 from voiopt import lattice as lattice_mod
+from voiopt import objectives
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.objectives import check_objective
@@ -34,7 +34,13 @@ from voiopt.solvers._dp_shared import (
     table_bytes,
     watched_all,
 )
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, check_threads, require_memory
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    check_limits,
+    check_threads,
+    require_memory,
+    warm_up_once,
+)
 from voiopt.stop import TIME_LIMIT, Stop, watch
 
 __all__ = ["CHUNK_WORK", "PAIR_TABLE_BYTES", "Tables", "build_tables", "table_bytes", "search", "solve", "warm_up"]
@@ -222,24 +228,18 @@ def _external(tab: Tables, value: float) -> float:
     return value / tab.to_internal
 
 
-_WARM = False
-
-
 def warm_up() -> float:
     """Compile (or load from numba's cache) the kernels once per process on a tiny instance, so
     that runtime_s measures the search alone; returns the seconds this took (0 once done)."""
-    global _WARM
-    if _WARM:
-        return 0.0
-    _WARM = True
-    from voiopt.generate import generate
 
-    t0 = time.perf_counter()
-    _numba_start.start()
-    tiny = generate(2, 4, width=2.0, height=2.0, seed=0, name="warm-up")
-    for objective in objectives.OBJECTIVES:
-        solve(tiny, objective, fast_budget=1)  # every pass and bound runs once
-    return time.perf_counter() - t0
+    def load():
+        from voiopt.generate import generate
+
+        tiny = generate(2, 4, width=2.0, height=2.0, seed=0, name="warm-up")
+        for objective in objectives.OBJECTIVES:
+            solve(tiny, objective, fast_budget=1)  # every pass and bound runs once
+
+    return warm_up_once("dp", load)
 
 
 def solve(

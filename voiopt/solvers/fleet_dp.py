@@ -14,7 +14,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from voiopt import _numba_start
 from voiopt import lattice as lattice_mod
 from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
@@ -24,7 +23,13 @@ from voiopt.result import Result
 from voiopt.simulate import simulate
 from voiopt.solvers import DP_MAX_ROBOTS
 from voiopt.solvers._dp_shared import CHUNK_WORK, Tables, build_tables, run_of, table_bytes, watched
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, Incumbent, check_limits, require_memory
+from voiopt.solvers.base import (
+    DEFAULT_MEMORY_GB,
+    Incumbent,
+    check_limits,
+    require_memory,
+    warm_up_once,
+)
 from voiopt.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, watch
 
 MAX_ROBOTS = DP_MAX_ROBOTS  # the product state of three robots on any useful grid is out of reach
@@ -216,31 +221,23 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         return _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, progress)
 
 
-_WARM = False
-
-
 def warm_up() -> float:
     """Compile (or load from numba's cache) the kernels on a tiny two-robot instance once per
     process, so that runtime_s and the time limit measure the search alone."""
-    global _WARM
-    if _WARM:
-        return 0.0
-    _WARM = True
-    import time
 
-    from voiopt.generate import generate
-    from voiopt.instance import from_dict
-    from voiopt.objectives import OBJECTIVES
+    def load():
+        from voiopt.generate import generate
+        from voiopt.instance import from_dict
+        from voiopt.objectives import OBJECTIVES
 
-    t0 = time.perf_counter()
-    _numba_start.start()
-    d = generate(2, 3, width=1.0, height=1.0, seed=0, name="warm-up").to_dict()
-    del d["start"]
-    d["robots"] = [{"start": [0, 0]}, {"start": [1, 1]}]
-    tiny = from_dict(d)
-    for objective in OBJECTIVES:
-        solve(tiny, objective)
-    return time.perf_counter() - t0
+        d = generate(2, 3, width=1.0, height=1.0, seed=0, name="warm-up").to_dict()
+        del d["start"]
+        d["robots"] = [{"start": [0, 0]}, {"start": [1, 1]}]
+        tiny = from_dict(d)
+        for objective in OBJECTIVES:
+            solve(tiny, objective)
+
+    return warm_up_once("fleet_dp", load)
 
 
 def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, progress) -> Result:

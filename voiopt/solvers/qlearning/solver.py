@@ -9,7 +9,7 @@ import time
 import numpy as np
 from rich.progress import TextColumn
 
-from voiopt import _numba_start, joint
+from voiopt import joint
 from voiopt import lattice as lattice_mod
 from voiopt.errors import MemoryLimitError, OptionError, check_seed
 from voiopt.instance import Instance
@@ -30,36 +30,31 @@ from voiopt.stop import MEMORY_LIMIT, watch
 BETA, GAMMA, EPISODES = 0.75, 0.9, 1_000_000
 
 
-_WARM: set[bool] = set()  # the kernels loaded so far in this process: False one robot's, True a fleet's
-
-
 def warm_up(fleet: bool = False) -> float:
     """Compile (or load from numba's cache) the one-robot kernels, or with ``fleet`` the fleet
     kernels, once per process, on a tiny MDP, so that a solve's runtime_s measures Algorithm 1
     alone; returns the seconds this took (0 when already done). Only the kernels a run needs
     are loaded: each costs start-up. The kernels' argument types do not depend on the instance."""
-    if fleet in _WARM:
-        return 0.0
-    from voiopt.generate import generate
-    from voiopt.instance import from_dict
 
-    t0 = time.perf_counter()
-    _numba_start.start()
-    tiny = generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up")
-    if fleet:
-        tiny = tiny.to_dict()
-        del tiny["start"]
-        model = fleet_mdp.build(from_dict({**tiny, "robots": [{"start": [0, 0]}, {"start": [1, 1], "end": [1, 0]}]}))
-        table = QTable(model, 0.0, 64 * 2**20, slots=16)
-        _fleet.train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
-        _fleet.rollout(model, table)
-    else:
-        model = mdp_mod.build(tiny)
-        table = QTable(model, 0.0, 64 * 2**20)
-        train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
-        rollout(model, table)
-    _WARM.add(fleet)
-    return time.perf_counter() - t0
+    def load():
+        from voiopt.generate import generate
+        from voiopt.instance import from_dict
+
+        tiny = generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up")
+        if fleet:
+            tiny = tiny.to_dict()
+            del tiny["start"]
+            model = fleet_mdp.build(from_dict({**tiny, "robots": [{"start": [0, 0]}, {"start": [1, 1], "end": [1, 0]}]}))
+            table = QTable(model, 0.0, 64 * 2**20, slots=16)
+            _fleet.train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
+            _fleet.rollout(model, table)
+        else:
+            model = mdp_mod.build(tiny)
+            table = QTable(model, 0.0, 64 * 2**20)
+            train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
+            rollout(model, table)
+
+    return base.warm_up_once("qlearning-fleet" if fleet else "qlearning", load)
 
 
 def _check_options(episodes, seed, beta, gamma, q_init, penalty):
