@@ -103,10 +103,6 @@ def _count_statuses(statuses) -> str:
     return ", ".join(f"{n} {s}" for s, n in sorted(counts.items())) or "0"
 
 
-def _pct(v: float | None) -> str:
-    return objectives.show_gap(v)
-
-
 def _seed_text(seeds: Sequence[int]) -> str:
     if not seeds:
         return "-"
@@ -137,10 +133,10 @@ def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instan
     ]
     for s in summary:
         rt = "-" if s["median_runtime_s"] is None else f"{s['median_runtime_s']:.3g} s"
+        gaps = " | ".join(objectives.show_gap(s[k]) for k in ("mean_gap", "min_gap", "max_gap", "median_gap"))
         lines.append(
             f"| {s['method']} | {s['instances']} | {_seed_text(s['seeds'])} | {s['runs']} | {s['optimal']} | "
-            f"{s['errors']} | {s['other']} | {_pct(s['mean_gap'])} | {_pct(s['min_gap'])} | {_pct(s['max_gap'])} | "
-            f"{_pct(s['median_gap'])} | {s['within_1pct']}/{s['runs']} | {rt} |"
+            f"{s['errors']} | {s['other']} | {gaps} | {s['within_1pct']}/{s['runs']} | {rt} |"
         )
     odd = [r for r in rows if r["status"] not in NORMAL]
     if odd:
