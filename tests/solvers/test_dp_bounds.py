@@ -104,9 +104,10 @@ def test_dp_proves_the_same_optima_with_and_without_the_tour_bound():
 
 
 def test_the_subsets_run_past_their_share_only_when_the_next_is_predicted_to_fit_or_leaves_many_out():
-    """_dp_subsets.until(spent, budget, cap, times, left_out): the share's budget, or the cap
-    when the next subset, predicted from the last two (the last time times their ratio, at
-    least 1), would finish within it, or when it leaves LEFT_OUT sensors or more out."""
+    """_dp_subsets.until(spent, budget, cap, times, left_out, far): the share's budget; ``far``
+    when the next subset leaves LEFT_OUT sensors or more out; else the cap when the next subset,
+    predicted from the last two (the last time times their ratio, at least 1), would finish
+    within it."""
     from voiopt.solvers._dp_subsets import LEFT_OUT, until
 
     assert until(5.0, 10.0, 20.0, [3.0]) == 10.0  # one subset solved: no trend to go by
@@ -115,11 +116,13 @@ def test_the_subsets_run_past_their_share_only_when_the_next_is_predicted_to_fit
     assert until(15.0, 10.0, 20.0, [4.0, 2.0]) == 20.0  # a shorter last time: predicted no less than 2 s
     assert until(19.0, 10.0, 20.0, [4.0, 2.0]) == 10.0
     assert until(1.0, 10.0, 10.0, [1.0, 1.0]) == 10.0  # no time limit: no cap beyond the budget
-    # many sensors beyond the next subset: the bounded pass over the whole is not expected to finish
-    assert until(17.0, 10.0, 20.0, [1.0, 2.0], LEFT_OUT) == 20.0
-    assert until(5.0, 10.0, 20.0, [3.0], LEFT_OUT + 3) == 20.0
-    assert until(17.0, 10.0, 20.0, [1.0, 2.0], LEFT_OUT - 1) == 10.0
-    assert until(1.0, 10.0, 10.0, [1.0, 1.0], LEFT_OUT) == 10.0
+    # many sensors beyond the next subset: the bounded pass over the whole is not expected to
+    # finish, so the subsets may take ``far`` (most of the time left)
+    assert until(17.0, 10.0, 20.0, [1.0, 2.0], LEFT_OUT, 36.0) == 36.0
+    assert until(5.0, 10.0, 20.0, [3.0], LEFT_OUT + 3, 36.0) == 36.0
+    assert until(17.0, 10.0, 20.0, [1.0, 2.0], LEFT_OUT - 1, 36.0) == 10.0
+    assert until(8.0, 10.0, 20.0, [1.0, 2.0], LEFT_OUT - 1, 36.0) == 20.0  # the prediction's cap still applies
+    assert until(1.0, 10.0, 10.0, [1.0, 1.0], LEFT_OUT, 10.0) == 10.0  # no time limit: the budget alone
 
 
 def test_every_subset_optimum_bounds_the_optimum_of_the_whole():

@@ -26,7 +26,8 @@ from voiopt.stop import Stop
 
 SHARE = 0.3  # of the time left that the subsets may take (the pattern databases need little of it)
 STRETCH = 0.5  # of the time left: the most they may take when the next subset is predicted to fit in it
-LEFT_OUT = 4  # sensors left out of the next subset from which it may take STRETCH without a prediction
+LEFT_OUT = 4  # sensors left out of the next subset from which it may take FAR without a prediction
+FAR = 0.9  # of the time left: the most they may take then (the bounded pass is not expected to finish)
 SECONDS = 10.0  # their budget when there is no time limit
 FIRST = 2  # sensors of the first subset
 MIN_SENSORS = 6  # with fewer, a subset is about as hard as the whole (the lattice and T dominate)
@@ -42,19 +43,20 @@ def applies(objective: str, n_sensors: int) -> bool:
     return spec.per_slot and spec.worth == "voi" and n_sensors >= MIN_SENSORS
 
 
-def until(spent: float, budget: float, cap: float, times: list[float], left_out: int = 0) -> float:
-    """Until when (seconds since the subsets began) the next subset may run: the share's
-    ``budget``; or ``cap`` when the subsets solved so far (``times``, seconds each) predict that
-    the next one finishes within it (its time: the last one's, times the last ratio of two, at
-    least 1), or when it leaves ``left_out`` >= LEFT_OUT sensors out. Without this a subset
-    about to finish was cut at the share and its time wasted: a 60 s run then failed networks
-    that a 300 s run proves in 14 to 21 s (docs/dp.md). The prediction is often wrong by 2x
-    either way. With LEFT_OUT sensors or more beyond the next subset, the bounded pass over
-    the whole, which the share keeps time for, has proven no network in the rest of a minute
-    in any run measured (the bounded pass proves networks of 8 to 10 sensors whose subsets
-    stopped 1 to 3 short of the whole; docs/dp.md), so the next subset is the better use."""
-    if cap > budget and left_out >= LEFT_OUT:
-        return cap
+def until(spent: float, budget: float, cap: float, times: list[float], left_out: int = 0,
+          far: float = 0.0) -> float:
+    """Until when (seconds since the subsets began) the next subset may run: ``far`` when it
+    leaves ``left_out`` >= LEFT_OUT sensors of the whole out; else ``cap`` when the subsets
+    solved so far (``times``, seconds each) predict that the next one finishes within it (its
+    time: the last one's, times the last ratio of two, at least 1); else the share's ``budget``.
+    Without this a subset about to finish was cut at the share and its time wasted: a 60 s run
+    then failed networks that a 300 s run proves in 14 to 21 s (docs/dp.md). The prediction is
+    often wrong by 2x either way. With LEFT_OUT sensors or more beyond the next subset, the
+    bounded pass over the whole, which the share keeps time for, has proven no network in the
+    rest of a minute in any run measured (it proves networks whose subsets stopped 1 to 3
+    sensors short of the whole), so the subsets are the only way to a proof there."""
+    if far > budget and left_out >= LEFT_OUT:
+        return far
     if len(times) >= 2 and cap > budget:
         predicted = times[-1] * max(times[-1] / max(times[-2], 1e-3), 1.0)
         if spent + predicted <= cap:
@@ -96,6 +98,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
     left = stop.remaining()
     budget = SECONDS if left is None else SHARE * max(left, 0.0)
     cap = budget if left is None else STRETCH * max(left, 0.0)
+    far = budget if left is None else FAR * max(left, 0.0)
     t0 = time.perf_counter()
     keep = sorted(need_order(tab)[:FIRST])
     best = np.inf
@@ -104,7 +107,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
         task = bar.add_task("dp subsets", total=None)
         while len(keep) < N:
             spent = time.perf_counter() - t0
-            end = until(spent, budget, cap, [rec["runtime_s"] for rec in records], N - len(keep))
+            end = until(spent, budget, cap, [rec["runtime_s"] for rec in records], N - len(keep), far)
             if spent >= end or stop.check() is not None:
                 break
             bar.update(task, description=f"dp subset of {len(keep)} sensors{_line(tab, incumbent()[1], best)}")
