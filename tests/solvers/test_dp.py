@@ -170,3 +170,35 @@ def test_threads_stop_at_the_time_limit_and_are_checked():
     fleet = voiopt.generate(3, 6, width=2.0, height=2.0, seed=0, robots=2)
     with pytest.raises(OptionError, match="--threads: an option of the one-robot dp"):
         dp.solve(fleet, "mean-min-voi", threads=2)
+
+
+def test_the_incumbents_beam_widens_with_the_cheap_bound_while_the_time_left_allows():
+    """dp._widening: the beam pass at ``beam`` (the solve's bounds), then 2 and 4 times as wide
+    with the cheap bound alone; a next pass predicted (2.5 x the last) past WIDEN_SHARE of the
+    time left is not started, nor one after a stop."""
+    import time as time_mod
+
+    class FakeStop:
+        def __init__(self, left, reason=None):
+            self.left, self.reason = left, reason
+
+        def remaining(self):
+            return self.left
+
+        def check(self):
+            return self.reason
+
+    def run(stop, seconds=0.0):
+        calls = []
+
+        def beam_pass(width, **kw):
+            calls.append((width, kw.get("tdma", "solve's")))
+            time_mod.sleep(seconds)
+        dp._widening(beam_pass, 16, stop)
+        return calls
+
+    assert dp.WIDEN == 4
+    assert run(FakeStop(None)) == [(16, "solve's"), (32, False), (64, False)]  # no time limit
+    assert run(FakeStop(100.0)) == [(16, "solve's"), (32, False), (64, False)]
+    assert run(FakeStop(1.0), seconds=0.05) == [(16, "solve's")]  # 2.5 x 0.05 s > 10 % of 1 s
+    assert run(FakeStop(100.0, reason="interrupted")) == [(16, "solve's")]
