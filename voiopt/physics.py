@@ -5,6 +5,11 @@
 For x <= 1/2 we use log1p(-x); for x close to 1 we use the exact complement
 1 - x = (B N0 q^2 + P g0 (1 - rho^A)) / (B N0 q^2 + P g0) with 1 - rho^A = -expm1(A ln rho),
 so neither tiny VoI (huge ages, tiny rho) nor huge VoI (q = 0, rho near 1) loses precision.
+
+The logarithms and exponentials are libm's (Python's ``math``), element by element over the
+distinct arguments, not numpy's: numpy has its own SIMD versions on CPUs with AVX-512, whose
+last bit differs from libm's, so the same plan simulated to different values on two machines
+(VoI-Lib's certificates record values exactly; 4 of its 60 mean values moved by one ulp).
 """
 
 from __future__ import annotations
@@ -48,17 +53,15 @@ def voi(aoi, distance, rho, power_w, channel: Channel):
     rho = np.asarray(rho, dtype=float)
     pg = np.asarray(power_w, float) * g0_linear(channel)
     bn = channel.bandwidth_hz * noise_w_per_hz(channel) * np.asarray(distance, float) ** 2
-    a_log_rho = aoi * np.log(rho)
-    log_x = a_log_rho + np.log(pg) - np.log(bn + pg)
+    a_log_rho = aoi * _libm(_log, rho)
+    log_x = a_log_rho + _libm(_log, pg) - _libm(_log, bn + pg)
     # Ages >= 1 give a_log_rho <= 0, so exp and expm1 cannot overflow; callers that tabulate
-    # ages <= 0 as well (and mask them, as models/uploads.py does) would otherwise print
-    # overflow warnings for a tiny rho.
-    with np.errstate(over="ignore"):
-        x = np.exp(log_x)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        small = -np.log1p(-np.minimum(x, 0.5))
-        one_minus_rho_a = -np.expm1(a_log_rho)
-        large = np.log(bn + pg) - np.log(bn + pg * one_minus_rho_a)
+    # ages <= 0 as well (and mask them, as models/uploads.py does) get +inf there.
+    x = _libm(_exp, log_x)
+    with np.errstate(invalid="ignore"):
+        small = -_libm(_log1p, -np.minimum(x, 0.5))
+        one_minus_rho_a = -_libm(_expm1, a_log_rho)
+        large = _libm(_log, bn + pg) - _libm(_log, bn + pg * one_minus_rho_a)
     nats = np.where(x <= 0.5, small, large)
     out = channel.bandwidth_hz * nats / LN2
     return out if out.ndim else float(out)
@@ -66,4 +69,34 @@ def voi(aoi, distance, rho, power_w, channel: Channel):
 
 def voi_of_x(x, bandwidth_hz: float):
     """g(x) = -B log2(1 - x), for x = rho^t * score (MODEL.md section 4)."""
-    return -bandwidth_hz * np.log1p(-np.asarray(x, float)) / LN2
+    out = -bandwidth_hz * _libm(_log1p, -np.asarray(x, float)) / LN2
+    return out if out.ndim else float(out)
+
+
+def _libm(f, x) -> np.ndarray:
+    """f (a scalar function of floats) of every element of x, computed once per distinct value."""
+    a = np.asarray(x, dtype=float)
+    distinct, where = np.unique(a, return_inverse=True)
+    return np.fromiter(map(f, distinct.tolist()), float, len(distinct))[where].reshape(a.shape)
+
+
+def _log(v: float) -> float:
+    return math.log(v) if v > 0 else -math.inf if v == 0 else math.nan
+
+
+def _log1p(v: float) -> float:
+    return math.log1p(v) if v > -1 else -math.inf if v == -1 else math.nan
+
+
+def _exp(v: float) -> float:
+    try:
+        return math.exp(v)
+    except OverflowError:
+        return math.inf
+
+
+def _expm1(v: float) -> float:
+    try:
+        return math.expm1(v)
+    except OverflowError:
+        return math.inf
