@@ -11,7 +11,7 @@ from oracles.bruteforce import brute_force
 import voiopt
 from voiopt.errors import OptionError
 from voiopt.objectives import OBJECTIVES
-from voiopt.solvers import dp
+from voiopt.solvers import _dp_search, dp
 
 RTOL = 1e-6
 
@@ -130,10 +130,10 @@ def test_progress_shows_incumbent_bound_and_gap_in_the_objectives_units(objectiv
 
     tab = dp.build_tables(voiopt.generate(3, 8, seed=5), objective)
     best, layer = (100.0, [120.0, 90.0]) if objective == "mean-min-voi" else (10.0, [8.0, 9.0])
-    text = dp._progress_bound(tab, best * tab.to_internal, np.array(layer) * tab.to_internal)
+    text = _dp_search._progress_bound(tab, best * tab.to_internal, np.array(layer) * tab.to_internal)
     bound = max(layer) if objective == "mean-min-voi" else min(layer)
     assert text == f"  best {best:.6g}  bound {bound:.6g}  gap {100 * abs(bound - best) / abs(bound):.3g} %"
-    assert dp._progress_bound(tab, -np.inf, np.array(layer)) == ""
+    assert _dp_search._progress_bound(tab, -np.inf, np.array(layer)) == ""
 
 
 def test_threads_keep_every_label_plan_and_bound():

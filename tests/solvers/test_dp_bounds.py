@@ -165,6 +165,41 @@ def test_dp_through_the_subsets_equals_the_brute_force(objective, monkeypatch):
         assert used == 0
 
 
+def test_each_subset_solved_from_the_smaller_ones_is_the_brute_force_optimum_of_its_network(monkeypatch):
+    """A subset's solve starts from the least bound of the smaller subsets and, where the last
+    of that bound recorded a complete pass, first searches just below that bound with the
+    pass's pattern (docs/dp.md, "Subsets of the sensors"). With every pass sent down the path
+    of large networks (a label budget of 1 for the subsets too), every subset proven optimal has
+    the brute force's optimum of its own network, and the whole network too."""
+    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    monkeypatch.setattr(dp, "FAST_BUDGET", 1)
+    for name in ("QUICK_BEAM", "DEFAULT_BEAM"):  # no incumbents to attain the bound before the passes
+        monkeypatch.setattr(dp, name, 0)
+    monkeypatch.setattr(dp, "_greedy_plan", lambda *args: None)
+    near = checked = 0
+    for k in range(10):  # 4 and 5 sensors: subsets of 2, 3 (and 4), each from the smaller ones
+        inst = voiopt.generate(4 + k % 2, 5 + k % 3, width=2.0 + k % 2, height=2.0, seed=700 + k, name=f"grow-{k}")
+        r = dp.solve(inst, "mean-min-voi", fast_budget=1, beam=0, quick_beam=0, greedy=False)
+        opt = _optimum(inst, "mean-min-voi")
+        assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
+        smaller = np.inf  # the least bound of the smaller subsets
+        for run in r.solver.get("subsets", []):
+            sub = _dp_subsets.restricted(inst, run["sensors"], f"{inst.name}-sub")
+            best = _optimum(sub, "mean-min-voi")
+            assert run["bound"] >= best - RTOL * abs(best), (inst.name, run)
+            if run["status"] == "optimal":
+                assert abs(run["bound"] - best) <= RTOL * max(abs(best), 1e-300), (inst.name, run, best)
+                checked += 1
+            if "bounded near the bound" in run["passes"]:  # its claim: the optimum attains the bound, or is below
+                near += 1
+                if run["passes"][-1] == "bounded":
+                    assert best < smaller * (1 - dp.NEAR), (inst.name, run, best, smaller)
+                else:
+                    assert abs(best - smaller) <= RTOL * abs(smaller), (inst.name, run, best, smaller)
+            smaller = min(smaller, run["bound"])
+    assert checked >= 10 and near >= 3, (checked, near)
+
+
 def test_the_subsets_certify_twelve_sensors_where_the_full_search_alone_does_not():
     inst = voiopt.generate_set(1, seed=2026, n_sensors=12, horizon=30, width=5.0, height=5.0, name="n12")[0]
     alone = dp.solve(inst, "mean-min-voi", time_limit=4, subsets=False)
@@ -260,7 +295,8 @@ def test_a_pattern_bounds_a_label_only_through_kept_labels_of_its_ranks_and_move
 
     def bound(lane, moves, ranks=(1, 1, 0), point=1, ub=np.inf, t=0):
         pattern = Pattern(np.array([0, 1]), [np.array([[2, 2], [2, 2]], np.int16)], [np.array([5, 1], np.int16)],
-                          [np.array([0, 0, 2])], [np.array([10.0, 3.0])], lane, 0.0, 2)
+                          [np.array([0, 0, 2])], [np.array([10.0, 3.0])], lane, 0.0, 2, np.zeros((2, 4, 2)),
+                          np.zeros(2, np.int16))
         return pattern.bound(Stop(), t, np.array([ranks], np.int16), np.array([1.0]), np.array([point], np.int32),
                              np.array([moves], np.int16), np.array([ub]), collapsed)[0]
 

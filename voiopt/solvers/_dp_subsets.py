@@ -13,6 +13,7 @@ or 16 sensors within a fraction of a percent, or proves their optimum.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -31,6 +32,21 @@ FAR = 0.9  # of the time left: the most they may take then (the bounded pass is 
 SECONDS = 10.0  # their budget when there is no time limit
 FIRST = 2  # sensors of the first subset
 MIN_SENSORS = 6  # with fewer, a subset is about as hard as the whole (the lattice and T dominate)
+
+
+@dataclass
+class Known:
+    """What the subsets solved so far tell the solve of a larger one, in its own sensors'
+    indices: the least of their bounds (internal units; it bounds the larger one's optimum too),
+    their records (``relax``), and the last complete pass of the last subset of that bound
+    (``_dp_pattern.Recorded``, from which a pattern database is made), with that subset's
+    sensors. The solve leaves its own last complete pass in ``made``."""
+
+    bound: float
+    runs: list[dict]
+    recorded: object = None
+    sensors: list[int] = field(default_factory=list)
+    made: object = None
 
 
 def applies(objective: str, n_sensors: int) -> bool:
@@ -80,17 +96,18 @@ def need_order(tab) -> list[int]:
 def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent, solve,
           progress: bool = False) -> tuple[float, list[dict]]:
     """The smallest bound (internal units) over a growing subset of the sensors, each subset
-    solved by ``solve(subset, seconds, warm_start)`` (dp) within the subsets' time budget (+inf
-    if none finished in time), and one record per subset solved: its sensors, status, seconds,
-    labels and bound (the objective's units), for ``solver.subsets``.
+    solved by ``solve(subset, seconds, warm_start, known)`` (dp; ``Known``) within the subsets'
+    time budget (+inf if none finished in time), and one record per subset solved: its
+    sensors, status, seconds, labels, bound (the objective's units) and the names of its
+    passes, for ``solver.subsets``.
 
     The subset starts with the sensors that ``need_order`` puts first. dp solves it from the
-    best plan so far (``incumbent()``: plan or None, and its internal value) restricted to it;
-    its plan is offered to ``offer`` as an incumbent and simulated on the whole network, and
-    the sensor outside the subset whose worth falls furthest below the subset's minimum (summed
-    over slots) joins it. This ends when none does (the plan is then optimal for the whole),
-    when the best plan attains the bound, when the budget is spent (``until``) or a subset is
-    not solved.
+    best plan so far (``incumbent()``: plan or None, and its internal value) restricted to it,
+    and from what the smaller subsets tell it (``Known``); its plan is offered to ``offer`` as
+    an incumbent and simulated on the whole network, and the sensor outside the subset whose
+    worth falls furthest below the subset's minimum (summed over slots) joins it. This ends when
+    none does (the plan is then optimal for the whole), when the best plan attains the bound,
+    when the budget is spent (``until``) or a subset is not solved.
     ``progress`` shows each subset with the best value, the bound and the gap."""
     N = instance.n_sensors
     if not applies(objective, N):
@@ -102,6 +119,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
     t0 = time.perf_counter()
     keep = sorted(need_order(tab)[:FIRST])
     best = np.inf
+    tight: tuple = (None, [])  # the last complete pass of the last subset of the least bound, and its sensors
     records: list[dict] = []
     with progress_bar(progress) as bar:
         task = bar.add_task("dp subsets", total=None)
@@ -112,10 +130,17 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
                 break
             bar.update(task, description=f"dp subset of {len(keep)} sensors{_line(tab, incumbent()[1], best)}")
             sub = restricted(instance, keep, f"{instance.name}-subset{len(keep)}")
-            r = solve(sub, end - spent, _restricted(incumbent()[0], keep))
-            best = min(best, r.bound * tab.to_internal)
+            known = Known(best, [dict(rec, sensors=[keep.index(i) for i in rec["sensors"]]) for rec in records],
+                          tight[0], [keep.index(i) for i in tight[1]])
+            r = solve(sub, end - spent, _restricted(incumbent()[0], keep), known)
+            bound = r.bound * tab.to_internal
+            if bound < best:
+                tight = (None, [])  # a pass of a larger bound ran at too high a threshold
+            best = min(best, bound)
+            if known.made is not None and bound <= best:
+                tight = (known.made, list(keep))
             records.append(dict(sensors=list(keep), status=r.status, runtime_s=r.runtime_s,
-                                labels=r.solver["labels"], bound=r.bound))
+                                labels=r.solver["labels"], bound=r.bound, passes=list(r.solver["passes"])))
             plan = Plan(r.plan.positions, tuple(None if u is None else keep[u] for u in r.plan.schedule))
             offer(plan, f"subset of {len(keep)}")
             if r.status != "optimal" or reaches(incumbent()[1], best):

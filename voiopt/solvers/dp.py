@@ -9,7 +9,6 @@ change the objective are collapsed. The compiled kernels live in ``_dp_core``.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
@@ -20,19 +19,16 @@ from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.objectives import check_objective
 from voiopt.plan import Plan
-from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
 from voiopt.solvers import _dp_pattern, _dp_subsets
+from voiopt.solvers._dp_search import LABEL_BUDGET, SearchOutcome, search
 from voiopt.solvers._dp_shared import (
     CHUNK_WORK,
     PAIR_TABLE_BYTES,
     Tables,
     build_tables,
-    progress_text,
-    run_of,
     table_bytes,
-    watched_all,
 )
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
@@ -50,176 +46,9 @@ QUICK_BEAM = 2  # labels per point of the beam pass that gives the first incumbe
 WIDEN = 4  # the incumbent's beam pass doubles its width up to WIDEN * beam,
 WIDEN_SHARE = 0.1  # while the next pass is predicted (2.5 x the last) to take at most this share of the time left
 FAST_BUDGET = 50_000  # labels of the first, unbounded pass before incumbents are computed
+NEAR = 1e-9  # relative: a subset's passes run this far below their threshold (_below)
+FUTURE_WORK = 1e9  # the most scans (_dp_pattern.future_work) for the pattern of a subset's first pass: about 4 s
 PATTERN_SENSORS = 3  # the bounded pass's pattern database: the first subset solved with this many sensors or more
-
-
-@dataclass
-class SearchOutcome:
-    value: float  # internal, -inf if nothing beat the incumbent
-    plan: tuple[np.ndarray, np.ndarray] | None  # (positions, schedule) of the best found
-    complete: bool  # every label processed: the optimum is max(value, incumbent)
-    open_bound: float  # when incomplete: max bound over the labels still open
-    labels: int  # labels created (kept after filtering), all layers
-    generated: int  # children generated before filtering
-    peak_layer: int
-    peak_bytes: int
-    slots_done: int
-    stopped: str | None = None  # why an incomplete pass stopped
-
-
-def _chunks(work: np.ndarray, threads: int) -> list[tuple[int, int]]:
-    """Runs (q_lo, q_hi) of target points of about CHUNK_WORK (label, upload) pairs each (at
-    least one point): one kernel call each. With threads, smaller ones, so that a slot gives
-    each thread about four to do."""
-    size = CHUNK_WORK if threads == 1 else min(CHUNK_WORK, max(1, int(work.sum()) // (4 * threads)))
-    chunks, q_lo = [], 0
-    while q_lo < len(work):
-        q_hi, _ = run_of(work, q_lo, size)
-        chunks.append((q_lo, q_hi))
-        q_lo = q_hi
-    return chunks
-
-
-def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = True, bounding: bool = True,
-           tdma: bool = True, stop: Stop | None = None, label_budget: int | None = None,
-           progress: bool = False, threads: int = 1, record: list | None = None,
-           patterns: tuple = ()) -> SearchOutcome:
-    """One forward pass. ``beam`` > 0 keeps only that many labels per point (a heuristic).
-    It stops early, incomplete, when the stop rule says so (time, memory of its labels,
-    Ctrl-C) or after more than ``label_budget`` labels. A slot's target points are expanded in
-    chunks, ``threads`` chunks at a time: they are independent, so the labels are the same
-    whatever ``threads`` is. ``record`` (a list) receives each slot's expanded labels as
-    (ranks, acc, moves left, points, offsets by point), the last slot's those that beat the
-    incumbent; ``patterns`` (_dp_pattern.Pattern) tighten each new layer's bounds. A pattern
-    built at threshold z needs ``incumbent`` >= z, and then a stopped pass's ``open_bound``
-    bounds the optimum only together with z (max of the two): see _dp_pattern."""
-    stop = stop or Stop()
-    from voiopt.solvers import _dp_core as core
-
-    T, n, N = tab.up_rank.shape
-    inc = incumbent if bounding else -np.inf
-    ranks = tab.initial_rank[None, :].copy()
-    acc = np.array([np.inf if tab.mode == core.MIN else 0.0])
-    pos = np.array([tab.start], dtype=np.int32)
-    left = np.array([tab.budget], dtype=np.int16)  # moves each label may still make
-    ub = core.label_bounds(tab.mode, 0, ranks, acc, pos, tab.W, tab.best_rank, collapse, tdma, tab.pair,
-                            tab.steps)
-    history: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per slot >= 1: parent, upload, pos
-    stored = 0
-    fixed = tab.nbytes + sum(pattern.nbytes for pattern in patterns)  # held for the whole pass
-    peak_layer = 1
-    peak_bytes = 0
-    labels = 1
-    generated = 0
-    bar = progress_bar(progress)
-    with bar:
-        task = bar.add_task("dp beam" if beam else "dp slots", total=T)
-        for t in range(T - 1):
-            keep = ub > inc
-            off = np.zeros(n + 1, dtype=np.int64)
-            np.add.at(off, pos[keep].astype(np.int64) + 1, 1)
-            off = np.cumsum(off)
-            idx = np.flatnonzero(keep)  # labels are grouped by point already
-            work = np.zeros(n, dtype=np.int64)
-            per_point = (off[1:] - off[:-1]) * (1 + tab.in_range_count)
-            for k in range(5):
-                nb = tab.neighbors[:, k]
-                work += np.where(nb >= 0, per_point[np.maximum(nb, 0)], 0)
-            parts = []
-            l_ranks, l_acc, l_ub, l_left = ranks[idx], acc[idx], ub[idx], left[idx]
-            if record is not None:
-                record.append((l_ranks, l_acc, l_left, pos[idx], off))
-                stored += l_ranks.nbytes + l_acc.nbytes + l_left.nbytes + 4 * len(idx) + off.nbytes
-            chunks = _chunks(work, threads)
-            stopped = False
-            for b in range(0, len(chunks), threads):  # memory and labels are checked between batches
-                outs = watched_all(stop, core.expand, [
-                    (tab.mode, t, l_ranks, l_acc, l_ub, l_left, off, tab.neighbors, tab.up_rank, tab.in_range_list,
-                     tab.in_range_count, tab.W, tab.best_rank, inc, q_lo, q_hi, beam, collapse, tdma, tab.pair,
-                     tab.steps, tab.to_end, tab.budget_lane) for q_lo, q_hi in chunks[b:b + threads]], threads)
-                if any(out[8] for out in outs):  # halted by the stop rule: the layer is abandoned, its parents stay open
-                    return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stop.reason)
-                for out in outs:
-                    parts.append((*out[:3], idx[out[3]], *out[4:]))
-                    generated += int(out[7])
-                if b + threads < len(chunks):
-                    stopped = _must_stop(stop, fixed + stored + sum(p[0].nbytes for p in parts),
-                                         label_budget, labels + sum(len(p[1]) for p in parts))
-                    if stopped:
-                        break
-            if stopped:
-                return _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stopped)
-            new_ranks = np.concatenate([p[0] for p in parts])
-            acc = np.concatenate([p[1] for p in parts])
-            new_ub = np.concatenate([p[2] for p in parts])
-            parent = np.concatenate([p[3] for p in parts])
-            upload = np.concatenate([p[4] for p in parts])
-            pos = np.concatenate([p[5] for p in parts])
-            left = np.concatenate([p[9] for p in parts])
-            history.append((parent, upload, pos))
-            stored += parent.nbytes + upload.nbytes + pos.nbytes
-            layer_bytes = new_ranks.nbytes + acc.nbytes + new_ub.nbytes + left.nbytes
-            peak_bytes = max(peak_bytes, stored + layer_bytes + ranks.nbytes)
-            ranks, ub = new_ranks, new_ub
-            for pattern in patterns:
-                ub = pattern.bound(stop, t + 1, ranks, acc, pos, left, ub, tab.W.shape[1] - 1)
-            labels += len(acc)
-            peak_layer = max(peak_layer, len(acc))
-            bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels{_progress_bound(tab, inc, ub)}")
-            if len(acc) == 0:
-                return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, t + 1)
-            stopped = _must_stop(stop, fixed + stored + layer_bytes, label_budget, labels)
-            if t + 1 < T - 1 and stopped:
-                return _incomplete(ub, ub > inc, labels, generated, peak_layer, peak_bytes, t + 1, stopped)
-        keep = np.flatnonzero(ub > inc)
-        if record is not None:
-            last = np.zeros(n + 1, dtype=np.int64)
-            np.add.at(last, pos[keep].astype(np.int64) + 1, 1)
-            record.append((ranks[keep], acc[keep], left[keep], pos[keep], np.cumsum(last)))
-        value, l, u = core.finish(tab.mode, T - 1, ranks[keep], acc[keep], pos[keep], tab.up_rank,
-                                  tab.in_range_list, tab.in_range_count, tab.W)
-        bar.update(task, advance=1)
-    if l < 0 or value <= inc:
-        return SearchOutcome(-np.inf, None, True, -np.inf, labels, generated, peak_layer, peak_bytes, T)
-    # reconstruct through the parent pointers
-    positions = np.empty(T, dtype=np.int64)
-    schedule = np.full(T, -1, dtype=np.int64)
-    schedule[T - 1] = u
-    label = int(keep[l])
-    for t in range(T - 1, 0, -1):
-        parent, upload, at = history[t - 1]
-        positions[t] = at[label]
-        schedule[t - 1] = upload[label]
-        label = int(parent[label])
-    positions[0] = tab.start
-    return SearchOutcome(float(value), (positions, schedule), True, -np.inf, labels, generated, peak_layer,
-                         peak_bytes, T)
-
-
-def _progress_bound(tab: Tables, inc: float, ub: np.ndarray) -> str:
-    """Incumbent, proven bound and gap for the progress bar: every completion that could beat
-    the incumbent passes through a label of the current layer, so max(incumbent, the layer's
-    largest bound) bounds the optimum now."""
-    if not np.isfinite(inc):
-        return ""
-    bound = max(inc, float(ub.max())) if len(ub) else inc
-    return progress_text(_external(tab, inc), _external(tab, bound))
-
-
-
-def _incomplete(ub, keep, labels, generated, peak_layer, peak_bytes, t, stopped) -> SearchOutcome:
-    open_bound = float(ub[keep].max()) if keep.any() else -np.inf
-    return SearchOutcome(-np.inf, None, False, open_bound, labels, generated, peak_layer, peak_bytes, t, stopped)
-
-
-LABEL_BUDGET = "label budget"  # a pass's own budget, not a stop of the solve
-
-
-def _must_stop(stop: Stop, used: float, label_budget, labels) -> str | None:
-    reason = stop.check(used)
-    if reason is None and label_budget is not None and labels > label_budget:
-        return LABEL_BUDGET
-    return reason
 
 
 def _internal(tab: Tables, value: float) -> float:
@@ -240,6 +69,12 @@ def warm_up() -> float:
         tiny = generate(2, 4, width=2.0, height=2.0, seed=0, name="warm-up")
         for objective in objectives.OBJECTIVES:
             solve(tiny, objective, fast_budget=1)  # every pass and bound runs once
+        # and a pattern database (its futures, then a pass it bounds): subsets of networks of 6
+        # or more use them, within their share of the time
+        tab = build_tables(tiny, "mean-min-voi")
+        pattern, _ = _dp_pattern.build(tiny, "mean-min-voi", [0], tab, -np.inf, Stop(), 1, search,
+                                       partial(_pattern_tables, objective="mean-min-voi"))
+        search(tab, -np.inf, patterns=(pattern,))
 
     return warm_up_once("dp", load)
 
@@ -297,7 +132,7 @@ def solve(
 
 def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, warm_start, beam, greedy,
            collapse, bounding, tdma, pair_bound, tour_bound, subsets, patterns, fast_budget, quick_beam,
-           progress, threads) -> Result:
+           progress, threads, known: _dp_subsets.Known | None = None) -> Result:
     tab = build_tables(instance, objective)
     if tour_bound and tdma and objectives.get(objective).per_slot:  # the bottleneck ones: slower, no tighter (docs/dp.md)
         tab.with_tour_bound()
@@ -333,8 +168,13 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
         beam_pass(quick_beam)
     # one thread: the label budget is checked after each chunk, and this pass is short
-    out = search(tab, inc(), label_budget=fast_budget, progress=progress, **{**limits, "threads": 1})
+    layers = None if known is None else []
+    threshold = _below(inc(), known)
+    out = search(tab, threshold, label_budget=fast_budget, progress=progress, record=layers,
+                 **{**limits, "threads": 1})
     passes.append(("fast", out))
+    if out.complete:
+        _leave(known, layers, tab, threshold)
     if not out.complete:
         plan = _greedy_plan(instance, objective, stop) if greedy and not stop.requested else None
         if plan is not None:
@@ -345,17 +185,23 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if beam > 0 and out.stopped == LABEL_BUDGET:
             _widening(beam_pass, beam, stop)
         if subsets and bounding and out.stopped == LABEL_BUDGET:
-            def solve_subset(sub: Instance, seconds: float, warm: Plan | None) -> Result:
-                return solve(sub, objective, time_limit=seconds, memory_limit=stop.memory_limit, warm_start=warm,
-                             subsets=False, threads=threads)
+            def solve_subset(sub: Instance, seconds: float, warm: Plan | None, known: _dp_subsets.Known) -> Result:
+                with watch(seconds, stop.memory_limit) as sub_stop:
+                    return _solve(sub, objective, sub_stop, 0.0, warm_start=warm, beam=DEFAULT_BEAM, greedy=True,
+                                  collapse=True, bounding=True, tdma=True, pair_bound=True, tour_bound=True,
+                                  subsets=False, patterns=patterns, fast_budget=FAST_BUDGET, quick_beam=QUICK_BEAM,
+                                  progress=False, threads=threads, known=known)
 
             relaxed, subset_runs = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
                                         solve_subset, progress)
+        elif known is not None and bounding and out.stopped == LABEL_BUDGET:
+            relaxed = min(relaxed, known.bound)  # a subset of this one's sensors bounds its optimum
         if out.stopped == LABEL_BUDGET and not _dp_subsets.reaches(best_value, relaxed):
-            out, relaxed = _bounded(instance, objective, tab, stop, subset_runs if patterns else [], inc, relaxed,
+            out, relaxed = _bounded(instance, objective, tab, stop, subset_runs or (known.runs if known else []), inc, relaxed,
                                     offer, passes, pattern_runs, progress, limits,
                                     partial(_pattern_tables, objective=objective, tour=tab.steps.shape[0] > 0,
-                                            pair_bytes=_pair_room(stop, tab) if pair_bound and tdma else 0.0))
+                                            pair_bytes=_pair_room(stop, tab) if pair_bound and tdma else 0.0),
+                                    patterns, known)
     if out.plan is not None:
         plan = Plan.from_indices(instance, *out.plan)
         found = _internal(tab, simulate(instance, plan).metrics[objective])
@@ -402,22 +248,42 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
 
 def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset_runs: list[dict], inc, relaxed: float,
              offer, passes: list, pattern_runs: list, progress: bool, limits: dict,
-             tables) -> tuple[SearchOutcome, float]:
+             tables, patterns: bool = True, known: _dp_subsets.Known | None = None) -> tuple[SearchOutcome, float]:
     """The bounded pass, with the pattern database (``_dp_pattern``) of the first subset of at
-    least PATTERN_SENSORS sensors that the subsets solved, if any. While the subsets' bound is
-    above the incumbent, a first pass searches only above the midpoint z between them: it finds
-    the optimum if that is above z (a pass is exact above its threshold) or proves the optimum
-    at most z, and then the last pass starts from the incumbent. Returns the last pass and the
-    bound proven (internal units); ``pattern_runs`` receives a record of each pattern built.
-    ``tables(subset)`` compiles a subset with the bounds of the whole's bounded pass."""
-    sensors = next((r["sensors"] for r in subset_runs
-                    if r["status"] == "optimal" and len(r["sensors"]) >= PATTERN_SENSORS), None)
+    least PATTERN_SENSORS sensors that the subsets solved, if any (and ``patterns``). While the
+    subsets' bound is above the incumbent, a first pass searches only above the midpoint z
+    between them: it finds the optimum if that is above z (a pass is exact above its threshold)
+    or proves the optimum at most z, and then the last pass starts from the incumbent. Returns
+    the last pass and the bound proven (internal units); ``pattern_runs`` receives a record of
+    each pattern built. ``tables(subset)`` compiles a subset with the bounds of the whole's
+    bounded pass.
+
+    A subset's solve (``known``, docs/dp.md "Subsets of the sensors") has no midpoint. Its first
+    pass, if the smaller subset whose optimum bounds its own left a complete pass, searches just
+    below that bound with the pattern of that pass: it finds a plan attaining the bound (often:
+    the sensor that joined does not lower the optimum) or proves the optimum below it. Its
+    passes run a hair (NEAR) below their threshold and are recorded, for the next subset."""
+    solved = [r for r in subset_runs if r["status"] == "optimal" and len(r["sensors"]) >= PATTERN_SENSORS]
+    sensors = solved[0]["sensors"] if solved and patterns else None
     z = inc()
-    if sensors is not None and np.isfinite(relaxed) and relaxed > z:
+    given = None
+    if known is not None:
+        near = _below(relaxed, known)
+        rec = known.recorded
+        if patterns and rec is not None and np.isfinite(relaxed) and near > z and rec.threshold <= near:
+            t0 = time.perf_counter()
+            own = _dp_pattern.from_layers(rec.layers, rec.tab, rec.threshold, stop)
+            given = None if own is None else own.within(known.sensors, tab)
+            z = near if given is not None else z
+            pattern_runs.append(dict(sensors=list(known.sensors), threshold=_external(tab, rec.threshold),
+                                     built=given is not None, labels=0, runtime_s=time.perf_counter() - t0))
+    elif sensors is not None and np.isfinite(relaxed) and relaxed > z:
         z += (relaxed - z) / 2
     while True:
-        patterns: tuple = ()
-        if sensors is not None:
+        found: tuple = ()
+        if given is not None:
+            found = (given,)
+        elif sensors is not None:
             t0 = time.perf_counter()
             pattern, own = _dp_pattern.build(instance, objective, sensors, tab, z, stop, limits["threads"], search,
                                              tables)
@@ -425,16 +291,35 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
                 offer(_subset_plan(instance, own.plan, sensors), f"pattern of {len(sensors)}")
             pattern_runs.append(dict(sensors=list(sensors), threshold=_external(tab, z), built=pattern is not None,
                                      labels=0 if own is None else own.labels, runtime_s=time.perf_counter() - t0))
-            patterns = () if pattern is None else (pattern,)
-        out = search(tab, max(z, inc()), progress=progress, patterns=patterns, **limits)
-        passes.append(("bounded" if z <= inc() else "bounded above the midpoint", out))
+            found = () if pattern is None else (pattern,)
+        threshold = max(z, inc()) if given is not None else _below(max(z, inc()), known)
+        layers = None if known is None else []
+        out = search(tab, threshold, progress=progress, patterns=found, record=layers, **limits)
+        passes.append(("bounded" if z <= inc() else "bounded near the bound" if given else "bounded above the midpoint",
+                       out))
         if not out.complete:  # the labels left open bound the plans above the pass's threshold
             out.open_bound = max(out.open_bound, z)
             return out, relaxed
+        _leave(known, layers, tab, threshold)
         if out.plan is not None or z <= inc():
             return out, relaxed
         relaxed = min(relaxed, z)  # no plan beats z
-        z = inc()
+        z, given = inc(), None
+
+
+def _leave(known: _dp_subsets.Known | None, layers: list | None, tab: Tables, threshold: float) -> None:
+    """A subset's complete pass, left for the next subset (``known.made``) if the futures of its
+    pattern take at most FUTURE_WORK scans: the first pass of a subset of 8 of a network of 16
+    waited 34 s for the pattern of a pass of 349k labels (docs/dp.md)."""
+    if known is not None:
+        cheap = _dp_pattern.future_work(layers, tab) <= FUTURE_WORK
+        known.made = _dp_pattern.Recorded(layers, tab, threshold) if cheap else None
+
+
+def _below(value: float, known: _dp_subsets.Known | None) -> float:
+    """A subset's pass threshold a hair (NEAR) below ``value``, so that the pattern of the pass
+    serves the next subset's first pass, just below the same bound; the whole's is ``value``."""
+    return value - NEAR * abs(value) if known is not None and np.isfinite(value) else value
 
 
 def _widening(beam_pass, beam: int, stop: Stop) -> None:
