@@ -9,6 +9,7 @@ change the objective are collapsed. The compiled kernels live in ``_dp_core``.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -313,7 +314,8 @@ def _leave(known: _dp_subsets.Known | None, layers: list | None, tab: Tables, th
     waited 34 s for the pattern of a pass of 349k labels (docs/dp.md)."""
     if known is not None:
         cheap = _dp_pattern.future_work(layers, tab) <= FUTURE_WORK
-        known.made = _dp_pattern.Recorded(layers, tab, threshold) if cheap else None
+        light = replace(tab, best_rank=tab.best_rank[:0], point_steps=tab.point_steps[:0], pair=tab.pair[:0])
+        known.made = _dp_pattern.Recorded(layers, light, threshold) if cheap else None  # without the bounds' tables
 
 
 def _below(value: float, known: _dp_subsets.Known | None) -> float:
