@@ -72,9 +72,10 @@ def warm_up() -> float:
             solve(tiny, objective, fast_budget=1)  # every pass and bound runs once
         # and a pattern database (its futures, then a pass it bounds): subsets of networks of 6
         # or more use them, within their share of the time
-        tab = build_tables(tiny, "mean-min-voi")
-        pattern, _ = _dp_pattern.build(tiny, "mean-min-voi", [0], tab, -np.inf, Stop(), 1, search,
-                                       partial(_pattern_tables, objective="mean-min-voi"))
+        mean = next(o for o in objectives.OBJECTIVES if _dp_subsets.applies(o, _dp_subsets.MIN_SENSORS))
+        tab = build_tables(tiny, mean)
+        pattern, _ = _dp_pattern.build(tiny, mean, [0], tab, -np.inf, Stop(), 1, search,
+                                       partial(_pattern_tables, objective=mean))
         search(tab, -np.inf, patterns=(pattern,))
 
     return warm_up_once("dp", load)
