@@ -58,7 +58,7 @@ def voi(aoi, distance, rho, power_w, channel: Channel):
     # Ages >= 1 give a_log_rho <= 0, so exp and expm1 cannot overflow; callers that tabulate
     # ages <= 0 as well (and mask them, as models/uploads.py does) get +inf there.
     x = _libm(_exp, log_x)
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):
         small = -_libm(_log1p, -np.minimum(x, 0.5))
         one_minus_rho_a = -_libm(_expm1, a_log_rho)
         large = _libm(_log, bn + pg) - _libm(_log, bn + pg * one_minus_rho_a)

@@ -19,6 +19,7 @@ from voiopt.solvers import _dp_subsets, dp
 from voiopt.solvers._dp_shared import build_tables
 
 RTOL = 1e-9
+EXACT = 1e-12  # the rounding of two sums of the same terms (_dp_subsets.reaches)
 
 
 def corridor_instances(count: int = 24, seed: int = 99) -> list[voiopt.Instance]:
@@ -165,30 +166,43 @@ def test_dp_through_the_subsets_equals_the_brute_force(objective, monkeypatch):
         assert used == 0
 
 
-def test_each_subset_solved_from_the_smaller_ones_is_the_brute_force_optimum_of_its_network(monkeypatch):
+@pytest.mark.parametrize("incumbents", [False, True])
+def test_each_subset_solved_from_the_smaller_ones_is_the_brute_force_optimum_of_its_network(incumbents, monkeypatch):
     """A subset's solve starts from the least bound of the smaller subsets and, where the last
     of that bound recorded a complete pass, first searches just below that bound with the
     pass's pattern (docs/dp.md, "Subsets of the sensors"). With every pass sent down the path
     of large networks (a label budget of 1 for the subsets too), every subset proven optimal has
-    the brute force's optimum of its own network, and the whole network too."""
+    the brute force's optimum of its own network, and the whole network too. Without
+    incumbents every subset runs its passes; with them (beams, greedy) a pass often starts from
+    the optimum itself, where a pattern built at the incumbent must not serve a pass below it."""
     monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
     monkeypatch.setattr(dp, "FAST_BUDGET", 1)
-    for name in ("QUICK_BEAM", "DEFAULT_BEAM"):  # no incumbents to attain the bound before the passes
-        monkeypatch.setattr(dp, name, 0)
-    monkeypatch.setattr(dp, "_greedy_plan", lambda *args: None)
+    if not incumbents:  # nothing attains the bound before the passes
+        for name in ("QUICK_BEAM", "DEFAULT_BEAM"):
+            monkeypatch.setattr(dp, name, 0)
+        monkeypatch.setattr(dp, "_greedy_plan", lambda *args: None)
+    search = dp.search
+
+    def checked_search(tab, incumbent, **kw):  # a pattern serves only passes at or above its threshold
+        assert all(incumbent >= p.threshold for p in kw.get("patterns", ())), incumbent
+        return search(tab, incumbent, **kw)
+
+    monkeypatch.setattr(dp, "search", checked_search)
     near = checked = 0
     for k in range(10):  # 4 and 5 sensors: subsets of 2, 3 (and 4), each from the smaller ones
         inst = voiopt.generate(4 + k % 2, 5 + k % 3, width=2.0 + k % 2, height=2.0, seed=700 + k, name=f"grow-{k}")
-        r = dp.solve(inst, "mean-min-voi", fast_budget=1, beam=0, quick_beam=0, greedy=False)
+        r = dp.solve(inst, "mean-min-voi", fast_budget=1, beam=dp.DEFAULT_BEAM, quick_beam=dp.QUICK_BEAM,
+                     greedy=incumbents)
         opt = _optimum(inst, "mean-min-voi")
         assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
+        assert r.bound >= opt - EXACT * abs(opt), (inst.name, r.bound, opt)
         smaller = np.inf  # the least bound of the smaller subsets
         for run in r.solver.get("subsets", []):
             sub = _dp_subsets.restricted(inst, run["sensors"], f"{inst.name}-sub")
             best = _optimum(sub, "mean-min-voi")
-            assert run["bound"] >= best - RTOL * abs(best), (inst.name, run)
+            assert run["bound"] >= best - EXACT * abs(best), (inst.name, run)  # far finer than dp.NEAR
             if run["status"] == "optimal":
-                assert abs(run["bound"] - best) <= RTOL * max(abs(best), 1e-300), (inst.name, run, best)
+                assert abs(run["bound"] - best) <= EXACT * max(abs(best), 1e-300), (inst.name, run, best)
                 checked += 1
             if "bounded near the bound" in run["passes"]:  # its claim: the optimum attains the bound, or is below
                 near += 1

@@ -76,7 +76,7 @@ def warm_up() -> float:
         tab = build_tables(tiny, mean)
         pattern, _ = _dp_pattern.build(tiny, mean, [0], tab, -np.inf, Stop(), 1, search,
                                        partial(_pattern_tables, objective=mean))
-        search(tab, -np.inf, patterns=(pattern,))
+        search(tab, -np.inf, patterns=() if pattern is None else (pattern,))
 
     return warm_up_once("dp", load)
 
@@ -170,7 +170,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
         beam_pass(quick_beam)
     # one thread: the label budget is checked after each chunk, and this pass is short
-    layers = None if known is None else []
+    layers = None if known is None or not patterns else []
     threshold = _below(inc(), known)
     out = search(tab, threshold, label_budget=fast_budget, progress=progress, record=layers,
                  **{**limits, "threads": 1})
@@ -270,9 +270,11 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
     z = inc()
     given = None
     if known is not None:
-        near = _below(relaxed, known)
         rec = known.recorded
-        if patterns and rec is not None and np.isfinite(relaxed) and near > z and rec.threshold <= near:
+        # just below B; or at the recorded pass's own threshold, where B came back from the
+        # objective's units an ulp lower (a pattern serves only passes at or above its threshold)
+        near = _below(relaxed, known) if rec is None else max(_below(relaxed, known), rec.threshold)
+        if patterns and rec is not None and np.isfinite(relaxed) and z < near < relaxed:
             t0 = time.perf_counter()
             own = _dp_pattern.from_layers(rec.layers, rec.tab, rec.threshold, stop)
             given = None if own is None else own.within(known.sensors, tab)
@@ -283,19 +285,20 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
         z += (relaxed - z) / 2
     while True:
         found: tuple = ()
+        at = max(z, inc()) if given is not None else _below(max(z, inc()), known)  # the pass's threshold
         if given is not None:
             found = (given,)
-        elif sensors is not None:
+        elif sensors is not None:  # built at the pass's threshold: a pattern serves passes at or above its own
             t0 = time.perf_counter()
-            pattern, own = _dp_pattern.build(instance, objective, sensors, tab, z, stop, limits["threads"], search,
+            pattern, own = _dp_pattern.build(instance, objective, sensors, tab, at, stop, limits["threads"], search,
                                              tables)
             if own is not None and own.plan is not None:  # a plan of the subset above z is one of the whole
                 offer(_subset_plan(instance, own.plan, sensors), f"pattern of {len(sensors)}")
-            pattern_runs.append(dict(sensors=list(sensors), threshold=_external(tab, z), built=pattern is not None,
+            pattern_runs.append(dict(sensors=list(sensors), threshold=_external(tab, at), built=pattern is not None,
                                      labels=0 if own is None else own.labels, runtime_s=time.perf_counter() - t0))
             found = () if pattern is None else (pattern,)
-        threshold = max(z, inc()) if given is not None else _below(max(z, inc()), known)
-        layers = None if known is None else []
+        threshold = max(at, z, inc()) if given is not None else max(at, _below(max(z, inc()), known))
+        layers = None if known is None or not patterns else []
         out = search(tab, threshold, progress=progress, patterns=found, record=layers, **limits)
         passes.append(("bounded" if z <= inc() else "bounded near the bound" if given else "bounded above the midpoint",
                        out))
@@ -314,7 +317,7 @@ def _leave(known: _dp_subsets.Known | None, layers: list | None, tab: Tables, th
     pattern take at most FUTURE_WORK scans: the first pass of a subset of 8 of a network of 16
     waited 34 s for the pattern of a pass of 349k labels (docs/dp.md)."""
     if known is not None:
-        cheap = _dp_pattern.future_work(layers, tab) <= FUTURE_WORK
+        cheap = layers is not None and _dp_pattern.future_work(layers, tab) <= FUTURE_WORK
         light = replace(tab, best_rank=tab.best_rank[:0], point_steps=tab.point_steps[:0], pair=tab.pair[:0])
         known.made = _dp_pattern.Recorded(layers, light, threshold) if cheap else None  # without the bounds' tables
 
