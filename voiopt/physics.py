@@ -6,8 +6,8 @@ For x <= 1/2 we use log1p(-x); for x close to 1 we use the exact complement
 1 - x = (B N0 q^2 + P g0 (1 - rho^A)) / (B N0 q^2 + P g0) with 1 - rho^A = -expm1(A ln rho),
 so neither tiny VoI (huge ages, tiny rho) nor huge VoI (q = 0, rho near 1) loses precision.
 
-The logarithms and exponentials are libm's (Python's ``math``), element by element over the
-distinct arguments, not numpy's: numpy has its own SIMD versions on CPUs with AVX-512, whose
+The logarithms and exponentials are libm's (Python's ``math``), element by element, each
+argument at its own shape before it broadcasts, not numpy's: numpy has its own SIMD versions on CPUs with AVX-512, whose
 last bit differs from libm's, so the same plan simulated to different values on two machines
 (VoI-Lib's certificates record values exactly; 4 of its 60 mean values moved by one ulp).
 """
@@ -53,16 +53,20 @@ def voi(aoi, distance, rho, power_w, channel: Channel):
     rho = np.asarray(rho, dtype=float)
     pg = np.asarray(power_w, float) * g0_linear(channel)
     bn = channel.bandwidth_hz * noise_w_per_hz(channel) * np.asarray(distance, float) ** 2
-    a_log_rho = aoi * _libm(_log, rho)
-    log_x = a_log_rho + _libm(_log, pg) - _libm(_log, bn + pg)
+    a_log_rho = aoi * _libm(_log, rho)  # the arguments are kept at their own shapes until they broadcast
+    log_pg_bn = _libm(_log, bn + pg)
+    log_x = a_log_rho + _libm(_log, pg) - log_pg_bn
     # Ages >= 1 give a_log_rho <= 0, so exp and expm1 cannot overflow; callers that tabulate
     # ages <= 0 as well (and mask them, as models/uploads.py does) get +inf there.
     x = _libm(_exp, log_x)
     with np.errstate(invalid="ignore", over="ignore"):
-        small = -_libm(_log1p, -np.minimum(x, 0.5))
         one_minus_rho_a = -_libm(_expm1, a_log_rho)
-        large = _libm(_log, bn + pg) - _libm(_log, bn + pg * one_minus_rho_a)
-    nats = np.where(x <= 0.5, small, large)
+        nats = np.empty(x.shape)
+        small = x <= 0.5  # each element takes one of the two forms (nan: the second, as before)
+        nats[small] = -_libm(_log1p, -x[small])
+        large = ~small
+        nats[large] = (np.broadcast_to(log_pg_bn, x.shape)[large]
+                       - _libm(_log, np.broadcast_to(bn + pg * one_minus_rho_a, x.shape)[large]))
     out = channel.bandwidth_hz * nats / LN2
     return out if out.ndim else float(out)
 
@@ -74,10 +78,9 @@ def voi_of_x(x, bandwidth_hz: float):
 
 
 def _libm(f, x) -> np.ndarray:
-    """f (a scalar function of floats) of every element of x, computed once per distinct value."""
+    """f (a scalar function of floats) of every element of x: a few hundred nanoseconds each."""
     a = np.asarray(x, dtype=float)
-    distinct, where = np.unique(a, return_inverse=True)
-    return np.fromiter(map(f, distinct.tolist()), float, len(distinct))[where].reshape(a.shape)
+    return np.fromiter(map(f, a.ravel().tolist()), float, a.size).reshape(a.shape)
 
 
 def _log(v: float) -> float:
