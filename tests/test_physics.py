@@ -119,3 +119,22 @@ def test_an_array_gets_the_same_bits_as_each_element_through_libm():
 
     want = np.array([scalar(a, d, r) for a, d, r in zip(aoi, q, rho, strict=True)])
     assert np.array_equal(got, want)
+
+
+def test_libm_edges_stay_quiet_and_keep_their_values():
+    """Edges, with no warning: rho = 0 (log 0, which numpy's log warned about), ages below 0 with
+    a small rho (overflow, tabulated and masked by models/uploads.py), nan; and voi_of_x bit for
+    bit against math."""
+    aoi = np.array([[-40.0], [1.0], [7.0]])
+    rho = np.array([0.0, 1e-300, 0.3, 1.0, np.nan])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        v = physics.voi(aoi, 1.5, rho, 1e9, CH)
+    assert v.shape == (3, 5)
+    assert (v[1:, 0] == 0.0).all() and np.isnan(v[:, 4]).all()  # rho = 0: nothing left at ages >= 1
+    assert (v[1:, 1:4] >= 0).all() and np.isfinite(v[1:, 1:4]).all()
+    assert not np.isfinite(v[0, :3]).any()  # age -40 with rho < 1: overflow, no value (the tables mask it)
+    x = np.random.default_rng(3).uniform(0.0, 1.0, 500)
+    want = np.array([-CH.bandwidth_hz * math.log1p(-t) / physics.LN2 for t in x])
+    assert np.array_equal(physics.voi_of_x(x, CH.bandwidth_hz), want)
+    assert isinstance(physics.voi_of_x(0.25, CH.bandwidth_hz), float)
