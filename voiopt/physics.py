@@ -7,9 +7,10 @@ For x <= 1/2 we use log1p(-x); for x close to 1 we use the exact complement
 so neither tiny VoI (huge ages, tiny rho) nor huge VoI (q = 0, rho near 1) loses precision.
 
 The logarithms and exponentials are libm's (Python's ``math``), element by element, each
-argument at its own shape before it broadcasts, not numpy's: numpy has its own SIMD versions on CPUs with AVX-512, whose
-last bit differs from libm's, so the same plan simulated to different values on two machines
-(VoI-Lib's certificates record values exactly; 4 of its 60 mean values moved by one ulp).
+argument at its own shape before it broadcasts, not numpy's: numpy has its own SIMD versions
+on CPUs with AVX-512, whose last bit differs from libm's, so the same plan simulated to
+different values on two machines (VoI-Lib's certificates record values exactly; 4 of its 60
+mean values moved by one ulp).
 """
 
 from __future__ import annotations

@@ -177,7 +177,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     passes.append(("fast", out))
     if out.complete:
         _leave(known, layers, tab, threshold)
-    if not out.complete:
+    else:
         plan = _greedy_plan(instance, objective, stop) if greedy and not stop.requested else None
         if plan is not None:
             offer(plan, "greedy")
@@ -273,8 +273,8 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
         rec = known.recorded
         # just below B; or at the recorded pass's own threshold, where B came back from the
         # objective's units an ulp lower (a pattern serves only passes at or above its threshold)
-        near = _below(relaxed, known) if rec is None else max(_below(relaxed, known), rec.threshold)
-        if patterns and rec is not None and np.isfinite(relaxed) and z < near < relaxed:
+        near = -np.inf if rec is None else max(_below(relaxed, known), rec.threshold)
+        if patterns and z < near < relaxed:
             t0 = time.perf_counter()
             own = _dp_pattern.from_layers(rec.layers, rec.tab, rec.threshold, stop)
             given = None if own is None else own.within(known.sensors, tab)
@@ -283,9 +283,12 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
                                      built=given is not None, labels=0, runtime_s=time.perf_counter() - t0))
     elif sensors is not None and np.isfinite(relaxed) and relaxed > z:
         z += (relaxed - z) / 2
+    def level() -> float:  # the pass's threshold (a subset's a hair below; its first pass is below B already)
+        return max(z, inc()) if given is not None else _below(max(z, inc()), known)
+
     while True:
         found: tuple = ()
-        at = max(z, inc()) if given is not None else _below(max(z, inc()), known)  # the pass's threshold
+        at = level()
         if given is not None:
             found = (given,)
         elif sensors is not None:  # built at the pass's threshold: a pattern serves passes at or above its own
@@ -297,7 +300,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
             pattern_runs.append(dict(sensors=list(sensors), threshold=_external(tab, at), built=pattern is not None,
                                      labels=0 if own is None else own.labels, runtime_s=time.perf_counter() - t0))
             found = () if pattern is None else (pattern,)
-        threshold = max(at, z, inc()) if given is not None else max(at, _below(max(z, inc()), known))
+        threshold = max(at, level())  # the pattern's offer may have raised the incumbent
         layers = None if known is None or not patterns else []
         out = search(tab, threshold, progress=progress, patterns=found, record=layers, **limits)
         passes.append(("bounded" if z <= inc() else "bounded near the bound" if given else "bounded above the midpoint",
@@ -316,10 +319,12 @@ def _leave(known: _dp_subsets.Known | None, layers: list | None, tab: Tables, th
     """A subset's complete pass, left for the next subset (``known.made``) if the futures of its
     pattern take at most FUTURE_WORK scans: the first pass of a subset of 8 of a network of 16
     waited 34 s for the pattern of a pass of 349k labels (docs/dp.md)."""
-    if known is not None:
-        cheap = layers is not None and _dp_pattern.future_work(layers, tab) <= FUTURE_WORK
+    if known is None:
+        return
+    known.made = None
+    if layers is not None and _dp_pattern.future_work(layers, tab) <= FUTURE_WORK:  # without the bounds' tables
         light = replace(tab, best_rank=tab.best_rank[:0], point_steps=tab.point_steps[:0], pair=tab.pair[:0])
-        known.made = _dp_pattern.Recorded(layers, light, threshold) if cheap else None  # without the bounds' tables
+        known.made = _dp_pattern.Recorded(layers, light, threshold)
 
 
 def _below(value: float, known: _dp_subsets.Known | None) -> float:
