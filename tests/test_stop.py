@@ -20,6 +20,17 @@ def test_limits_give_their_own_reasons():
     assert stop.check() == TIME_LIMIT and stop.remaining() < 0
 
 
+def test_a_label_allowance_stops_as_a_time_limit_does_at_the_same_count_on_every_run():
+    stop = Stop(labels_limit=100)
+    stop.spend(99)
+    assert stop.check() is None and stop.remaining() is None
+    stop.spend(1)
+    assert stop.check() == TIME_LIMIT and "allowance of 100 labels" in stop.describe()
+    with watch(None, None, 5) as inner:
+        inner.spend(5)
+        assert inner.check() == TIME_LIMIT
+
+
 def test_a_signal_stops_every_open_watch_and_one_asked_before_a_watch_opens_holds_inside_it():
     before = signal.getsignal(signal.SIGTERM)
     with watch() as outer:

@@ -17,12 +17,15 @@ GB = 1e9  # memory limits are given in GB (10^9 bytes) everywhere
 class Stop:
     """Why a run must stop now, if it must: ``reason`` is None, or one of the three statuses."""
 
-    def __init__(self, time_limit: float | None = None, memory_limit: float | None = None) -> None:
+    def __init__(self, time_limit: float | None = None, memory_limit: float | None = None,
+                 labels_limit: int | None = None) -> None:
         self.t0 = time.perf_counter()
         self.time_limit = time_limit
         self.memory_limit = memory_limit
         self.deadline = None if time_limit is None else self.t0 + float(time_limit)
         self.memory_bytes = None if memory_limit is None else float(memory_limit) * GB
+        self.labels_limit = labels_limit  # a clock counted in work, not seconds: dp's labels (``spend``)
+        self.labels = 0
         self.reason: str | None = None
         self.signal: int | None = None  # the signal that asked to stop, if one did
 
@@ -42,6 +45,12 @@ class Stop:
         """Seconds left before the time limit (None: no limit)."""
         return None if self.deadline is None else self.deadline - time.perf_counter()
 
+    def spend(self, labels: int) -> None:
+        """Count ``labels`` against ``labels_limit``. It stops work as a time limit does, with
+        the same status, but at the same point on every run: dp gives its subsets such an
+        allowance when the solve has no time limit, so that the solve is deterministic."""
+        self.labels += int(labels)
+
     def fits(self, nbytes: float) -> bool:
         """Does holding ``nbytes`` stay within the memory limit?"""
         return self.memory_bytes is None or nbytes <= self.memory_bytes
@@ -51,12 +60,16 @@ class Stop:
         if self.reason is None:
             if self.deadline is not None and time.perf_counter() >= self.deadline:
                 self.reason = TIME_LIMIT
+            elif self.labels_limit is not None and self.labels >= self.labels_limit:
+                self.reason = TIME_LIMIT
             elif not self.fits(memory_used):
                 self.reason = MEMORY_LIMIT
         return self.reason
 
     def describe(self) -> str:
         """One line on why the run stopped, for ``solver.stopped``."""
+        if self.reason == TIME_LIMIT and self.time_limit is None:
+            return f"allowance of {self.labels_limit:,} labels reached"
         if self.reason == TIME_LIMIT:
             return f"time limit of {self.time_limit:g} s reached"
         if self.reason == MEMORY_LIMIT:
@@ -112,11 +125,11 @@ def _restore() -> None:
 
 
 @contextmanager
-def watch(time_limit: float | None = None, memory_limit: float | None = None):
+def watch(time_limit: float | None = None, memory_limit: float | None = None, labels_limit: int | None = None):
     """A Stop for the block. In the main thread the first Ctrl-C or SIGTERM requests a stop of
     every watch open (a sweep and the solve inside it alike); a second one raises Interrupted
     at once. Elsewhere (worker threads) signals cannot be caught and only the limits apply."""
-    stop = Stop(time_limit, memory_limit)
+    stop = Stop(time_limit, memory_limit, labels_limit)
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return

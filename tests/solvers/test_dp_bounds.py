@@ -6,6 +6,9 @@ these tests would not test it; and dp with and without it proves the same optima
 
 from __future__ import annotations
 
+import itertools
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from conftest import field_instances, oracle_optima, tiny_instances
@@ -212,6 +215,33 @@ def test_each_subset_solved_from_the_smaller_ones_is_the_brute_force_optimum_of_
                     assert abs(best - smaller) <= RTOL * abs(smaller), (inst.name, run, best, smaller)
             smaller = min(smaller, run["bound"])
     assert checked >= 10 and near >= 3, (checked, near)
+
+
+def test_without_a_time_limit_the_subsets_run_on_a_label_allowance_not_the_clock(monkeypatch):
+    """With no time limit the subsets' budget is LABELS labels, not seconds, so the same solve
+    takes the same subsets, passes and plan however slow the machine is: here a clock on which
+    30 s pass between any two readings changes nothing (with a budget in seconds no subset ran).
+    An allowance that runs out mid-subset stops it at the same point on every run, and the
+    bounded pass then proves the brute force's optimum."""
+    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    inst = voiopt.generate(5, 8, width=3.0, height=2.0, seed=907, name="clock")
+
+    def path(r):
+        return r.plan, list(r.solver["passes"]), [(run["sensors"], run["status"], run["labels"], run["passes"])
+                                                  for run in r.solver["subsets"]]
+
+    calm = dp.solve(inst, "mean-min-voi", fast_budget=1)
+    clock = itertools.count(0.0, 30.0)
+    monkeypatch.setattr(_dp_subsets, "time", SimpleNamespace(perf_counter=lambda: next(clock)))
+    busy = dp.solve(inst, "mean-min-voi", fast_budget=1)
+    assert path(busy) == path(calm) and len(calm.solver["subsets"]) == 3
+    first, second = (run["labels"] for run in calm.solver["subsets"][:2])
+    monkeypatch.setattr(_dp_subsets, "LABELS", first + second + 1)  # one label left for the third subset
+    cut, again = (dp.solve(inst, "mean-min-voi", fast_budget=1) for _ in range(2))
+    assert path(cut) == path(again)
+    assert [run["status"] for run in cut.solver["subsets"]] == ["optimal", "optimal", "time_limit"]
+    opt = _optimum(inst, "mean-min-voi")
+    assert cut.status == calm.status == "optimal" and abs(cut.value - opt) <= RTOL * abs(opt)
 
 
 def test_the_subsets_certify_twelve_sensors_where_the_full_search_alone_does_not():

@@ -127,6 +127,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
             for pattern in patterns:
                 ub = pattern.bound(stop, t + 1, ranks, acc, pos, left, ub, tab.W.shape[1] - 1)
             labels += len(acc)
+            stop.spend(len(acc))  # at a layer's end only: where an allowance stops a pass is the same for any threads
             peak_layer = max(peak_layer, len(acc))
             bar.update(task, advance=1, description=f"dp slots  {len(acc):,} labels{_progress_bound(tab, inc, ub)}")
             if len(acc) == 0:

@@ -29,7 +29,7 @@ SHARE = 0.3  # of the time left that the subsets may take (the pattern databases
 STRETCH = 0.5  # of the time left: the most they may take when the next subset is predicted to fit in it
 LEFT_OUT = 4  # sensors left out of the next subset from which it may take FAR without a prediction
 FAR = 0.9  # of the time left: the most they may take then (the bounded pass is not expected to finish)
-SECONDS = 10.0  # their budget when there is no time limit
+LABELS = 1_000_000  # their budget when there is no time limit (about 10 s): labels, so that such a run is deterministic
 FIRST = 2  # sensors of the first subset
 MIN_SENSORS = 6  # with fewer, a subset is about as hard as the whole (the lattice and T dominate)
 
@@ -96,8 +96,8 @@ def need_order(tab) -> list[int]:
 def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent, solve,
           progress: bool = False) -> tuple[float, list[dict]]:
     """The smallest bound (internal units) over a growing subset of the sensors, each subset
-    solved by ``solve(subset, seconds, warm_start, known)`` (dp; ``Known``) within the subsets'
-    time budget (+inf if none finished in time), and one record per subset solved: its
+    solved by ``solve(subset, seconds, labels, warm_start, known)`` (dp; ``Known``) within the
+    subsets' budget (+inf if none finished in it), and one record per subset solved: its
     sensors, status, seconds, labels, bound (the objective's units) and the names of its
     passes, for ``solver.subsets``.
 
@@ -107,15 +107,16 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
     an incumbent and simulated on the whole network, and the sensor outside the subset whose
     worth falls furthest below the subset's minimum (summed over slots) joins it. This ends when
     none does (the plan is then optimal for the whole), when the best plan attains the bound,
-    when the budget is spent (``until``) or a subset is not solved.
+    when the budget is spent (``until``) or a subset is not solved. Without a time limit the
+    budget is LABELS labels, not seconds: the same run then takes the same subsets, passes and
+    plan however busy the machine is.
     ``progress`` shows each subset with the best value, the bound and the gap."""
     N = instance.n_sensors
     if not applies(objective, N):
         return np.inf, []
     left = stop.remaining()
-    budget = SECONDS if left is None else SHARE * max(left, 0.0)
-    cap = budget if left is None else STRETCH * max(left, 0.0)
-    far = budget if left is None else FAR * max(left, 0.0)
+    if left is not None:
+        budget, cap, far = (share * max(left, 0.0) for share in (SHARE, STRETCH, FAR))
     t0 = time.perf_counter()
     keep = sorted(need_order(tab)[:FIRST])
     best = np.inf
@@ -124,15 +125,20 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
     with progress_bar(progress) as bar:
         task = bar.add_task("dp subsets", total=None)
         while len(keep) < N:
-            spent = time.perf_counter() - t0
-            end = until(spent, budget, cap, [rec["runtime_s"] for rec in records], N - len(keep), far)
-            if spent >= end or stop.check() is not None:
+            if left is None:
+                seconds, labels = None, LABELS - sum(rec["labels"] for rec in records)
+            else:
+                spent = time.perf_counter() - t0
+                end = until(spent, budget, cap, [rec["runtime_s"] for rec in records], N - len(keep), far)
+                seconds, labels = end - spent, None
+            if (seconds is not None and seconds <= 0) or (labels is not None and labels <= 0) \
+                    or stop.check() is not None:
                 break
             bar.update(task, description=f"dp subset of {len(keep)} sensors{_line(tab, incumbent()[1], best)}")
             sub = restricted(instance, keep, f"{instance.name}-subset{len(keep)}")
             known = Known(best, [dict(rec, sensors=[keep.index(i) for i in rec["sensors"]]) for rec in records],
                           tight[0], [keep.index(i) for i in tight[1]])
-            r = solve(sub, end - spent, _restricted(incumbent()[0], keep), known)
+            r = solve(sub, seconds, labels, _restricted(incumbent()[0], keep), known)
             bound = r.bound * tab.to_internal
             if bound < best:
                 tight = (None, [])  # a pass of a larger bound ran at too high a threshold

@@ -187,8 +187,9 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if beam > 0 and out.stopped == LABEL_BUDGET:
             _widening(beam_pass, beam, stop)
         if subsets and bounding and out.stopped == LABEL_BUDGET:
-            def solve_subset(sub: Instance, seconds: float, warm: Plan | None, known: _dp_subsets.Known) -> Result:
-                with watch(seconds, stop.memory_limit) as sub_stop:
+            def solve_subset(sub: Instance, seconds: float | None, labels: int | None, warm: Plan | None,
+                             known: _dp_subsets.Known) -> Result:
+                with watch(seconds, stop.memory_limit, labels) as sub_stop:
                     return _solve(sub, objective, sub_stop, 0.0, warm_start=warm, beam=DEFAULT_BEAM, greedy=True,
                                   collapse=True, bounding=True, tdma=True, pair_bound=True, tour_bound=True,
                                   subsets=False, patterns=patterns, fast_budget=FAST_BUDGET, quick_beam=QUICK_BEAM,
