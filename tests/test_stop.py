@@ -29,6 +29,9 @@ def test_a_label_allowance_stops_as_a_time_limit_does_at_the_same_count_on_every
     with watch(None, None, 5) as inner:
         inner.spend(5)
         assert inner.check() == TIME_LIMIT
+    told = Stop()  # a solver's own clock (HiGHS's) ran out, with no limit of ours
+    told.request(TIME_LIMIT)
+    assert told.describe() == "time limit reached"
 
 
 def test_a_signal_stops_every_open_watch_and_one_asked_before_a_watch_opens_holds_inside_it():

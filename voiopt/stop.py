@@ -68,10 +68,11 @@ class Stop:
 
     def describe(self) -> str:
         """One line on why the run stopped, for ``solver.stopped``."""
-        if self.reason == TIME_LIMIT and self.time_limit is None:
-            return f"allowance of {self.labels_limit:,} labels reached"
-        if self.reason == TIME_LIMIT:
+        if self.reason == TIME_LIMIT and self.time_limit is not None:
             return f"time limit of {self.time_limit:g} s reached"
+        if self.reason == TIME_LIMIT:
+            return "time limit reached" if self.labels_limit is None else \
+                f"allowance of {self.labels_limit:,} labels reached"
         if self.reason == MEMORY_LIMIT:
             return f"memory limit of {self.memory_limit:g} GB reached"
         if self.reason == INTERRUPTED:
