@@ -176,8 +176,9 @@ def watched_all(stop: Stop, kernel, calls: list[tuple], threads: int) -> list:
     """``watched`` for several calls of one nogil kernel, up to ``threads`` of them at once
     (they run in parallel, since the kernel releases the GIL); the results in the calls' order,
     whatever order they finish in. One halt flag stops them all: a call made after it is up
-    returns at once, halted."""
-    halt = np.zeros(1, dtype=np.uint8)
+    returns at once, halted, and so does every call when the stop rule says stop before they
+    start (a label allowance spent: the same on every run)."""
+    halt = np.array([stop.check() is not None], dtype=np.uint8)
     results: list = [None] * len(calls)  # None until its call returns
     todo = iter(range(len(calls)))
     lock = threading.Lock()
