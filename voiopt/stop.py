@@ -58,9 +58,8 @@ class Stop:
     def check(self, memory_used: float = 0.0) -> str | None:
         """The reason to stop now (and remember it), or None to go on."""
         if self.reason is None:
-            if self.deadline is not None and time.perf_counter() >= self.deadline:
-                self.reason = TIME_LIMIT
-            elif self.labels_limit is not None and self.labels >= self.labels_limit:
+            if (self.deadline is not None and time.perf_counter() >= self.deadline) or \
+                    (self.labels_limit is not None and self.labels >= self.labels_limit):
                 self.reason = TIME_LIMIT
             elif not self.fits(memory_used):
                 self.reason = MEMORY_LIMIT

@@ -130,7 +130,7 @@ def test_progress_shows_incumbent_bound_and_gap_in_the_objectives_units(objectiv
 
     tab = dp.build_tables(voiopt.generate(3, 8, seed=5), objective)
     best, layer = (100.0, [120.0, 90.0]) if objective == "mean-min-voi" else (10.0, [8.0, 9.0])
-    text = _dp_search._progress_bound(tab, best * tab.to_internal, np.array(layer) * tab.to_internal)
+    text = _dp_search._progress_bound(tab, tab.internal(best), tab.internal(np.array(layer)))
     bound = max(layer) if objective == "mean-min-voi" else min(layer)
     assert text == f"  best {best:.6g}  bound {bound:.6g}  gap {100 * abs(bound - best) / abs(bound):.3g} %"
     assert _dp_search._progress_bound(tab, -np.inf, np.array(layer)) == ""
@@ -153,7 +153,7 @@ def test_threads_keep_every_label_plan_and_bound(monkeypatch):
     inst = voiopt.generate(6, 30, seed=5)  # a bounded pass from just below the optimum
     tab = dp.build_tables(inst, "mean-min-voi")
     tab.with_tour_bound()
-    inc = dp._internal(tab, dp.solve(inst, "mean-min-voi").value) * (1 - 1e-3)
+    inc = tab.internal(dp.solve(inst, "mean-min-voi").value) * (1 - 1e-3)
     passes = [dp.search(tab, inc, threads=k) for k in (1, 2, 3)]
     assert passes[0].complete and passes[0].labels > 10_000 and passes[0].plan is not None
     for p in passes[1:]:

@@ -167,7 +167,7 @@ def _progress_bound(tab: Tables, inc: float, ub: np.ndarray) -> str:
     if not np.isfinite(inc):
         return ""
     bound = max(inc, float(ub.max())) if len(ub) else inc
-    return progress_text(inc / tab.to_internal, bound / tab.to_internal)
+    return progress_text(tab.external(inc), tab.external(bound))
 
 
 

@@ -46,6 +46,14 @@ class Tables:
     pair: np.ndarray = field(default_factory=lambda: np.empty((0, 0, 0, 0, 0)))  # pair_table, or empty
     steps: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=np.int64))  # range_steps, or empty
 
+    def internal(self, value: float) -> float:
+        """An objective value in the kernels' (maximised) units."""
+        return value * self.to_internal
+
+    def external(self, value: float) -> float:
+        """A value in the kernels' units in the objective's own."""
+        return value / self.to_internal
+
     @property
     def nbytes(self) -> int:
         """Bytes of the tables (they count against the memory limit with the labels)."""

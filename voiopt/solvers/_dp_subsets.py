@@ -131,15 +131,14 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
                 spent = time.perf_counter() - t0
                 end = until(spent, budget, cap, [rec["runtime_s"] for rec in records], N - len(keep), far)
                 seconds, labels = end - spent, None
-            if (seconds is not None and seconds <= 0) or (labels is not None and labels <= 0) \
-                    or stop.check() is not None:
+            if (labels if seconds is None else seconds) <= 0 or stop.check() is not None:
                 break
             bar.update(task, description=f"dp subset of {len(keep)} sensors{_line(tab, incumbent()[1], best)}")
             sub = restricted(instance, keep, f"{instance.name}-subset{len(keep)}")
             known = Known(best, [dict(rec, sensors=[keep.index(i) for i in rec["sensors"]]) for rec in records],
                           tight[0], [keep.index(i) for i in tight[1]])
             r = solve(sub, seconds, labels, _restricted(incumbent()[0], keep), known)
-            bound = r.bound * tab.to_internal
+            bound = tab.internal(r.bound)
             if bound < best:
                 tight = (None, [])  # a pass of a larger bound ran at too high a threshold
             best = min(best, bound)
@@ -184,7 +183,7 @@ def _line(tab, value: float, bound: float) -> str:
     """Best value, bound and gap in the objective's units, for the progress bar."""
     if not (np.isfinite(value) and np.isfinite(bound)):
         return ""
-    return progress_text(value / tab.to_internal, bound / tab.to_internal)
+    return progress_text(tab.external(value), tab.external(bound))
 
 
 def _restricted(plan: Plan | None, keep: list[int]) -> Plan | None:

@@ -46,11 +46,11 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
                 out = dp.search(tab, best_internal, beam=w, tdma=False, stop=stop)
                 if out.plan is not None:
                     plan = Plan.from_indices(instance, *out.plan)
-                    v = dp._internal(tab, simulate(instance, plan).metrics[objective])
+                    v = tab.internal(simulate(instance, plan).metrics[objective])
                     if best_plan is None or v > best_internal:
                         best_plan, best_internal = plan, v
                 passes.append({"width": w, "labels": out.labels, "complete": out.complete,
-                               "value": None if best_plan is None else dp._external(tab, best_internal)})
+                               "value": None if best_plan is None else tab.external(best_internal)})
                 bar.update(task, advance=1, description=f"beam width {w}")
                 if stop.check() is not None:
                     break

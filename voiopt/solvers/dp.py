@@ -52,14 +52,6 @@ FUTURE_WORK = 1e9  # the most scans (_dp_pattern.future_work) for the pattern of
 PATTERN_SENSORS = 3  # the bounded pass's pattern database: the first subset solved with this many sensors or more
 
 
-def _internal(tab: Tables, value: float) -> float:
-    return value * tab.to_internal
-
-
-def _external(tab: Tables, value: float) -> float:
-    return value / tab.to_internal
-
-
 def warm_up() -> float:
     """Compile (or load from numba's cache) the kernels once per process on a tiny instance, so
     that runtime_s measures the search alone; returns the seconds this took (0 once done)."""
@@ -145,10 +137,10 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
 
     def offer(plan: Plan, source: str) -> None:
         nonlocal best_plan, best_value
-        v = _internal(tab, simulate(instance, plan).metrics[objective])
+        v = tab.internal(simulate(instance, plan).metrics[objective])
         if best_plan is None or v > best_value:
             best_plan, best_value = plan, v
-        incumbents.append((source, _external(tab, v)))
+        incumbents.append((source, tab.external(v)))
 
     def inc() -> float:
         return best_value if bounding else -np.inf
@@ -207,8 +199,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
                                     patterns, known)
     if out.plan is not None:
         plan = Plan.from_indices(instance, *out.plan)
-        found = _internal(tab, simulate(instance, plan).metrics[objective])
-        incumbents.append(("dp", _external(tab, found)))
+        found = tab.internal(simulate(instance, plan).metrics[objective])
+        incumbents.append(("dp", tab.external(found)))
         if best_plan is None or found > best_value:
             best_plan, best_value = plan, found
         else:  # the incumbent matches to rounding: keep it, count the DP value in the bound
@@ -238,14 +230,14 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     }
     solver["startup_s"] = startup_s
     if np.isfinite(relaxed):
-        solver["subset_bound"] = _external(tab, relaxed)
+        solver["subset_bound"] = tab.external(relaxed)
     if subset_runs:
         solver["subsets"] = subset_runs
     if pattern_runs:
         solver["patterns"] = pattern_runs
     if status != "optimal":
         solver["stopped"] = stop.describe()
-    return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=_external(tab, bound_internal),
+    return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=tab.external(bound_internal),
                             runtime_s=stop.elapsed(), solver=solver)
 
 
@@ -280,7 +272,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
             own = _dp_pattern.from_layers(rec.layers, rec.tab, rec.threshold, stop)
             given = None if own is None else own.within(known.sensors, tab)
             z = near if given is not None else z
-            pattern_runs.append(dict(sensors=list(known.sensors), threshold=_external(tab, rec.threshold),
+            pattern_runs.append(dict(sensors=list(known.sensors), threshold=tab.external(rec.threshold),
                                      built=given is not None, labels=0, runtime_s=time.perf_counter() - t0))
     elif sensors is not None and np.isfinite(relaxed) and relaxed > z:
         z += (relaxed - z) / 2
@@ -298,7 +290,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
                                              tables)
             if own is not None and own.plan is not None:  # a plan of the subset above z is one of the whole
                 offer(_subset_plan(instance, own.plan, sensors), f"pattern of {len(sensors)}")
-            pattern_runs.append(dict(sensors=list(sensors), threshold=_external(tab, at), built=pattern is not None,
+            pattern_runs.append(dict(sensors=list(sensors), threshold=tab.external(at), built=pattern is not None,
                                      labels=0 if own is None else own.labels, runtime_s=time.perf_counter() - t0))
             found = () if pattern is None else (pattern,)
         threshold = max(at, level())  # the pattern's offer may have raised the incumbent
