@@ -90,6 +90,112 @@ def _ranks_geq(a, b):
     return True
 
 
+DIMS = 3  # lanes whose values file the kept candidates of the Pareto filter,
+BINS = 8  # in this many cells each
+
+
+@njit(cache=True, inline="always")
+def _lane(key, d):
+    """Lane d (16 bits) of a packed key."""
+    return np.int64((key[d // 4] >> np.uint64(16 * (d % 4))) & np.uint64(0xFFFF))
+
+
+@njit(cache=True, nogil=True)
+def pareto(key, neg_acc, neg_sum, m, lanes, kept, halt):
+    """The non-dominated candidates 0..m-1 of one point into kept[:nk]; returns nk (-1 if
+    halted). Ordered by accumulated value, then lane sum (both descending), then generation
+    order, a candidate can only be dominated by one before it: one with a value at least as
+    high and each of the ``lanes`` lanes of its ``key`` at least as high (of identical ones the
+    first is kept).
+
+    The kept candidates are filed on a grid over the DIMS lanes whose values spread most, BINS
+    cells each way (monotone in the value): only the cells at or above a candidate's along each
+    can hold one that dominates it. The one that dominated last is tried first: dominators come
+    in runs. Which candidates are kept, and in which order, does not depend on the grid."""
+    o1 = np.argsort(neg_sum[:m], kind="mergesort")
+    o2 = np.argsort(neg_acc[o1], kind="mergesort")
+    dim = np.full(DIMS, -1, dtype=np.int64)
+    lo = np.zeros(DIMS, dtype=np.int64)
+    spread = np.zeros(DIMS, dtype=np.int64)
+    for d in range(lanes):
+        lo_d = _lane(key[0], d)
+        hi_d = lo_d
+        for h in range(1, m):
+            v = _lane(key[h], d)
+            if v < lo_d:
+                lo_d = v
+            elif v > hi_d:
+                hi_d = v
+        for e in range(DIMS):  # the DIMS widest spreads, widest first
+            if hi_d - lo_d > spread[e]:
+                for f in range(DIMS - 1, e, -1):
+                    dim[f], lo[f], spread[f] = dim[f - 1], lo[f - 1], spread[f - 1]
+                dim[e], lo[e], spread[e] = d, lo_d, hi_d - lo_d
+                break
+    bins = np.ones(DIMS, dtype=np.int64)
+    cells = 1
+    for e in range(DIMS):
+        if dim[e] >= 0:
+            bins[e] = min(BINS, spread[e] + 1)
+        cells *= bins[e]
+    cell = np.empty(m, dtype=np.int64)
+    start = np.zeros(cells + 1, dtype=np.int64)  # where each cell's keys begin in k_key
+    for h in range(m):
+        x = 0
+        for e in range(DIMS):
+            x = x * bins[e] + _bin(key[h], dim[e], lo[e], spread[e], bins[e])
+        cell[h] = x
+        start[x + 1] += 1
+    for x in range(cells):
+        start[x + 1] += start[x]
+    filled = np.zeros(cells, dtype=np.int64)  # how many keys each cell holds
+    k_key = np.empty((m, key.shape[1]), dtype=np.uint64)  # the kept candidates' keys, each cell's side by side
+    at = np.empty(DIMS, dtype=np.int64)
+    nk = 0
+    last = -1
+    for j in range(m):
+        if (j & 255) == 0 and halt[0]:
+            return -1
+        c = o1[o2[j]]
+        if last >= 0 and _ranks_geq(k_key[last], key[c]):
+            continue
+        for e in range(DIMS):
+            at[e] = _bin(key[c], dim[e], lo[e], spread[e], bins[e])
+        h = _dominator(k_key, key[c], start, filled, at, bins)
+        if h >= 0:
+            last = h
+            continue
+        h = start[cell[c]] + filled[cell[c]]
+        k_key[h] = key[c]
+        filled[cell[c]] += 1
+        kept[nk] = c
+        nk += 1
+    return nk
+
+
+@njit(cache=True, inline="always")
+def _bin(key, d, lo, spread, bins):
+    """The cell, 0..bins-1, of a key along lane d of the filter's grid (0 if unused)."""
+    if d < 0:
+        return 0
+    return (_lane(key, d) - lo) * bins // (spread + 1)
+
+
+@njit(cache=True, inline="always")
+def _dominator(k_key, key, start, filled, at, bins):
+    """A kept key (its place in k_key) with every lane at least ``key``'s, or -1: from the
+    cells at or above ``at`` along each of the grid's DIMS (= 3) lanes, newest first."""
+    for b0 in range(at[0], bins[0]):
+        for b1 in range(at[1], bins[1]):
+            base = (b0 * bins[1] + b1) * bins[2]
+            for b2 in range(at[2], bins[2]):
+                x = base + b2
+                for h in range(start[x] + filled[x] - 1, start[x] - 1, -1):
+                    if _ranks_geq(k_key[h], key):
+                        return h
+    return -1
+
+
 @njit(cache=True)
 def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse, tdma, scratch, pair, lo_buf,
                         hi_buf, steps, iscratch):
@@ -216,8 +322,6 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
     c_sum = np.empty(max_m)
     c_left = np.empty(max_m, dtype=np.int16)
     kept = np.empty(max_m, dtype=np.int64)
-    chain = np.empty(max_m, dtype=np.int64)  # next kept label in the same bucket
-    head = np.empty(W.shape[1] + 1, dtype=np.int64)  # first kept label of each bucket
     matters = np.zeros(N, dtype=np.bool_)
     scratch = np.empty(N)
     lo = np.empty(N)
@@ -276,54 +380,10 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
                     m += 1
         if m == 0:
             continue
-        # Pareto filter: order by accumulated value, then rank sum (both descending), then
-        # generation order; a label can only be dominated by one before it.
-        o1 = np.argsort(c_sum[:m], kind="mergesort")
-        o2 = np.argsort(c_acc[o1], kind="mergesort")
-        # Kept labels are bucketed by the rank of the sensor whose ranks spread most: only
-        # buckets at or above the candidate's rank there can hold a dominating label.
-        bd = 0
-        lo_b = 0
-        spread = -1
-        for i in range(N):
-            lo_i = c_rank[0, i]
-            hi_i = c_rank[0, i]
-            for h in range(1, m):
-                if c_rank[h, i] < lo_i:
-                    lo_i = c_rank[h, i]
-                elif c_rank[h, i] > hi_i:
-                    hi_i = c_rank[h, i]
-            if hi_i - lo_i > spread:
-                spread = hi_i - lo_i
-                bd = i
-                lo_b = lo_i
-        for b in range(spread + 1):
-            head[b] = -1
-        nk = 0
-        last = 0  # the latest dominating label is tried first: dominators come in runs
-        for j in range(m):
-            if (j & 255) == 0 and halt[0]:
-                return (out_rank[:0].copy(), out_acc[:0].copy(), out_ub[:0].copy(), out_par[:0].copy(),
-                        out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True, out_left[:0].copy())
-            c = o1[o2[j]]
-            dominated = nk > 0 and _ranks_geq(c_key[kept[last]], c_key[c])
-            v = c_rank[c, bd] - lo_b
-            if not dominated:
-                for b in range(v, spread + 1):
-                    h = head[b]
-                    while h >= 0:
-                        if _ranks_geq(c_key[kept[h]], c_key[c]):
-                            dominated = True
-                            last = h
-                            break
-                        h = chain[h]
-                    if dominated:
-                        break
-            if not dominated:
-                kept[nk] = c
-                chain[nk] = head[v]
-                head[v] = nk
-                nk += 1
+        nk = pareto(c_key, c_acc, c_sum, m, NL, kept, halt)
+        if nk < 0:
+            return (out_rank[:0].copy(), out_acc[:0].copy(), out_ub[:0].copy(), out_par[:0].copy(),
+                    out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True, out_left[:0].copy())
         if tdma:  # the costlier bound only for the survivors of the filter
             nt = 0
             for h in range(nk):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt._jit import njit
-from voiopt.solvers._dp_core import SUM, _combine, _ranks_geq
+from voiopt.solvers._dp_core import SUM, _combine, pareto
 
 
 @njit(cache=True, inline="always")
@@ -89,29 +89,6 @@ def _sources(nbr, q0, q1, src):
             src[k, 1] = p1
             k += 1
     return k
-
-
-@njit(cache=True, nogil=True)
-def _pareto(key, neg_acc, neg_sum, m, kept, halt):
-    """The non-dominated candidates 0..m-1 into kept[:nk]; returns nk (-1 if halted). Ordered by
-    accumulated value, then lane sum (both descending), a candidate can only be dominated by
-    one before it: one with a value at least as high and every lane at least as high."""
-    o1 = np.argsort(neg_sum[:m], kind="mergesort")
-    o2 = np.argsort(neg_acc[o1], kind="mergesort")
-    nk = 0
-    for j in range(m):
-        if (j & 255) == 0 and halt[0]:
-            return -1
-        c = o1[o2[j]]
-        free = True
-        for h in range(nk - 1, -1, -1):
-            if _ranks_geq(key[kept[h]], key[c]):
-                free = False
-                break
-        if free:
-            kept[nk] = c
-            nk += 1
-    return nk
 
 
 @njit(cache=True, nogil=True)
@@ -200,7 +177,7 @@ def expand(mode, t, ranks, acc, ub_in, left0, left1, off, nbr, up_rank, in_range
                         m += 1
         if m == 0:
             continue
-        nk = _pareto(c_key, c_acc, c_sum, m, kept, halt)
+        nk = pareto(c_key, c_acc, c_sum, m, N + 2, kept, halt)
         if nk < 0:
             return _empty(N, counts, generated)
         if beam > 0 and nk > beam:  # a heuristic pass: the labels of best bound
