@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from voiopt.stop import INTERRUPTED, MEMORY_LIMIT, TIME_LIMIT, Interrupted, Stop, watch
+from voiopt.stop import INTERRUPTED, MEMORY_LIMIT, TIME_LIMIT, Interrupted, Stop, starting, watch
 
 
 def test_limits_give_their_own_reasons():
@@ -44,6 +44,49 @@ def test_a_signal_stops_every_open_watch_and_one_asked_before_a_watch_opens_hold
         with watch() as later:  # e.g. the next solve of a sweep, or one still starting up
             assert later.requested and later.signal == signal.SIGTERM
     assert signal.getsignal(signal.SIGTERM) is before  # restored
+
+
+def test_a_signal_while_a_solver_starts_is_held_for_the_watch_of_its_solve_once():
+    with starting() as warm:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)
+        assert warm.reason == INTERRUPTED
+    with watch() as solve:  # the solve that was starting
+        assert solve.requested and solve.signal == signal.SIGTERM
+    with watch() as later:  # one signal stops one solve
+        assert not later.requested
+    with watch() as outer:  # within a sweep the sweep's watch carries it: nothing is held
+        with starting():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.01)
+    assert outer.reason == INTERRUPTED
+    with watch() as after:
+        assert not after.requested
+
+
+def test_a_signal_while_dp_warms_up_stops_the_solve_not_only_the_warm_up(monkeypatch):
+    """A Ctrl-C or SIGTERM in the warm-up used to stop only its tiny solves: the real solve then
+    ran to the end with status optimal (found by a fuzz campaign, 2026-12-02)."""
+    import voiopt
+    from voiopt.solvers import base, dp
+
+    real, sent = dp.build_tables, []
+
+    def tables_and_a_signal(*args, **kwargs):  # in the warm-up's first tiny solve
+        if not sent:
+            sent.append(os.kill(os.getpid(), signal.SIGTERM))
+            time.sleep(0.01)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(base, "_WARM", set())  # the next solve warms up again
+    monkeypatch.setattr(dp, "build_tables", tables_and_a_signal)
+    before = signal.getsignal(signal.SIGTERM)
+    inst = voiopt.generate(6, 30, seed=3)
+    r = dp.solve(inst, "mean-min-voi")
+    assert r.status == INTERRUPTED and r.solver["stopped"] == "interrupted by SIGTERM"
+    assert r.metrics == voiopt.evaluate(inst, r.plan)  # the best plan so far, as the simulator values it
+    assert signal.getsignal(signal.SIGTERM) is before
+    assert dp.solve(voiopt.generate(3, 8, seed=3), "mean-min-voi").status == "optimal"  # the next solve runs
 
 
 def test_a_second_signal_raises_at_once():

@@ -102,6 +102,7 @@ _previous: dict = {}  # the handlers before the outermost watch
 
 
 _last_signal: list[int] = []
+_held: list[int] = []  # a stop asked for while a solver was starting, for the watch of its solve (``starting``)
 
 
 def last_signal() -> int | None:
@@ -136,6 +137,8 @@ def watch(time_limit: float | None = None, memory_limit: float | None = None, la
     for outer in _active:  # a stop asked for before this watch opened still holds inside it
         if outer.reason == INTERRUPTED:
             stop.request(INTERRUPTED, outer.signal)
+    if _held:
+        stop.request(INTERRUPTED, _held.pop())
     _active.append(stop)  # before the handler goes in: no signal can fall between the two
     if len(_active) == 1:
         _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
@@ -149,6 +152,20 @@ def watch(time_limit: float | None = None, memory_limit: float | None = None, la
             _restore()
 
 
+@contextmanager
+def starting():
+    """A block in which a solver starts: it warms up its kernels on a tiny instance, whose own
+    solves open and close their watches. A Ctrl-C or SIGTERM in it stops that work, and, unless
+    a watch outside the block carries it already, is held for the next watch, which opens
+    stopped: the solve that was starting stops too, instead of running on as if no one had
+    asked (docs/reliability.md)."""
+    outside = bool(_active)
+    with watch() as stop:
+        yield stop
+    if stop.reason == INTERRUPTED and not outside and threading.current_thread() is threading.main_thread():
+        _held[:] = [stop.signal]
+
+
 def _forget_after_fork() -> None:
     """A forked child (a pool worker) starts with no watch open and default handlers: the
     parent's sweep and its stop state are not the child's."""
@@ -158,6 +175,7 @@ def _forget_after_fork() -> None:
     _active.clear()
     _previous.clear()
     _last_signal.clear()
+    _held.clear()
 
 
 os.register_at_fork(after_in_child=_forget_after_fork)

@@ -21,7 +21,7 @@ from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.instance import Instance
 from voiopt.plan import Plan
 from voiopt.simulate import simulate_indices
-from voiopt.stop import GB
+from voiopt.stop import GB, starting
 
 DEFAULT_MEMORY_GB = 4.0  # every method's memory limit unless told otherwise
 
@@ -105,6 +105,7 @@ def warm_up_once(family: str, load: Callable[[], object]) -> float:
     from voiopt import _numba_start
 
     t0 = time.perf_counter()
-    _numba_start.start()
-    load()
+    with starting():  # a Ctrl-C now stops the solve that is starting, not only the warm-up's
+        _numba_start.start()
+        load()
     return time.perf_counter() - t0
