@@ -228,3 +228,19 @@ def test_no_joint_plan_is_proved_within_the_time_limit(method):
     r = voiopt.solve(undecided(SWAP_ONLY), method, time_limit=0.5)
     assert r.status == "infeasible" and r.plan is None and "no legal joint plan" in r.solver["note"]
     assert time.perf_counter() - start < 0.5 + 5.0  # the limit holds (generously: dp may load its kernels)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_lattice_packed_with_robots_gets_its_one_legal_plan_within_the_time_limit(method):
+    """36 robots on 6 x 6 points: the only legal joint move is every robot staying. The
+    walker's enumeration of joint moves is exponential there (it had not finished one slot
+    after 11 minutes, and ignored the time limit and SIGTERM): it is cut after MAX_NODES
+    partial choices, or by the stop rule, to every robot staying."""
+    d = voiopt.generate(3, 4, seed=1).to_dict()
+    d.pop("start")
+    d["robots"] = [{"start": [float(x), float(y)]} for y in range(6) for x in range(6)]
+    inst = from_dict(d)
+    r = voiopt.solve(inst, method, "mean-min-voi", time_limit=3)
+    assert r.status in ("feasible", "time_limit") and r.runtime_s <= 3 * 1.1 + 1
+    assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
+    assert all(len(set(robot.positions)) == 1 for robot in r.plan.robots)
