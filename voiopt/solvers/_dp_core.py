@@ -92,6 +92,7 @@ def _ranks_geq(a, b):
 
 DIMS = 3  # lanes whose values file the kept candidates of the Pareto filter,
 BINS = 8  # in this many cells each
+SMALL = 64  # candidates of a point up to which the filter scans the kept ones without the grid
 
 
 @njit(cache=True, inline="always")
@@ -111,9 +112,25 @@ def pareto(key, neg_acc, neg_sum, m, lanes, kept, halt):
     The kept candidates are filed on a grid over the DIMS lanes whose values spread most, BINS
     cells each way (monotone in the value): only the cells at or above a candidate's along each
     can hold one that dominates it. The one that dominated last is tried first: dominators come
-    in runs. Which candidates are kept, and in which order, does not depend on the grid."""
+    in runs. Which candidates are kept, and in which order, does not depend on the grid. Up to
+    SMALL candidates the kept ones are scanned newest first without it."""
     o1 = np.argsort(neg_sum[:m], kind="mergesort")
     o2 = np.argsort(neg_acc[o1], kind="mergesort")
+    if m <= SMALL:  # a small front: every kept candidate, newest first, costs less than the grid
+        nk = 0
+        for j in range(m):
+            if (j & 255) == 0 and halt[0]:
+                return -1
+            c = o1[o2[j]]
+            free = True
+            for h in range(nk - 1, -1, -1):
+                if _ranks_geq(key[kept[h]], key[c]):
+                    free = False
+                    break
+            if free:
+                kept[nk] = c
+                nk += 1
+        return nk
     dim = np.full(DIMS, -1, dtype=np.int64)
     lo = np.zeros(DIMS, dtype=np.int64)
     spread = np.zeros(DIMS, dtype=np.int64)
