@@ -91,7 +91,8 @@ def main(argv: list[str] | None = None) -> int:
                 peak_mb=max(r.solver["peak_label_bytes"] for r in results) / 1e6,
                 labels=statistics.median(r.solver["labels"] for r in results),
                 gap=statistics.median(open_gaps) if open_gaps else None,
-                gap_all=statistics.median(r.gap if r.gap is not None else float("inf") for r in results), limit=limit,
+                gap_all=statistics.median(r.gap if r.gap is not None else float("inf") for r in results),
+                worst=max(r.gap if r.gap is not None else float("inf") for r in results), limit=limit,
             ))
             _print_row(rows[-1], header=len(rows) == 1)
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
