@@ -130,23 +130,42 @@ def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_id
 
 
 @njit(cache=True)
-def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, mv_idx):
-    """Fill alive[t] for t = T-2 .. 0 from alive[t + 1]: the moves made are ``within`` every
-    budget, and some joint move leads to a joint point and moves made that are alive in the
-    next slot (``_next_alive``). The step from one slot to the one before does not depend on
-    the slot, so once a slot equals the next one, every earlier slot equals it too: they are
-    copied, not computed (a long horizon costs little)."""
-    T, C, M = alive.shape
+def _alive_slot(alive, t, c_lo, c_hi, within, nxt_cfg, moved, counted, budgets, strides, mv_idx):
+    """Fill alive[t, c_lo:c_hi] from alive[t + 1]: the moves made are ``within`` every budget,
+    and some joint move leads to a joint point and moves made that are alive in the next slot
+    (``_next_alive``). Returns whether those rows equal the next slot's."""
+    same = True
+    for c in range(c_lo, c_hi):
+        for m in range(alive.shape[2]):
+            if within[m] and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
+                alive[t, c, m] = 1
+            same = same and alive[t, c, m] == alive[t + 1, c, m]
+    return same
+
+
+CHUNK = 4096  # joint points per kernel call: the stop rule is checked between calls
+
+
+class Stopped(Exception):
+    """The table was not finished: the stop rule said stop."""
+
+
+def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, mv_idx, stop=None) -> None:
+    """Fill alive[t] for t = T-2 .. 0 from alive[t + 1], CHUNK joint points at a time, checking
+    ``stop`` (voiopt.stop.Stop) between them (Stopped): two robots on a 21 x 21 factory floor
+    with ends took 8 s, past any time limit. The step from one slot to the one before does not
+    depend on the slot, so once a slot equals the next one, every earlier slot equals it too:
+    they are copied, not computed (a long horizon costs little)."""
+    T, C, _ = alive.shape
     for t in range(T - 2, -1, -1):
         same = True
-        for c in range(C):
-            for m in range(M):
-                if within[m] and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
-                    alive[t, c, m] = 1
-                same = same and alive[t, c, m] == alive[t + 1, c, m]
+        for lo in range(0, C, CHUNK):
+            if stop is not None and stop.check() is not None:
+                raise Stopped(stop.reason)
+            same &= _alive_slot(alive, t, lo, min(C, lo + CHUNK), within, nxt_cfg, moved, counted, budgets,
+                                strides, mv_idx)
         if same:
-            for t2 in range(t - 1, -1, -1):
-                alive[t2] = alive[t]
+            alive[:t] = alive[t]
             return
 
 
@@ -158,9 +177,9 @@ def _moves_of(neighbors: bytes, n: int, K: int):
     return _joint_moves(np.frombuffer(neighbors, dtype=np.int64).reshape(n, 5), K)
 
 
-def table(neighbors: np.ndarray, ends, max_moves, horizon: int) -> Table:
+def table(neighbors: np.ndarray, ends, max_moves, horizon: int, stop=None) -> Table:
     """The alive table of K robots on one lattice (``_grid.neighbors``), each with its end
-    (point index, or -1 for none) and max_moves (or None)."""
+    (point index, or -1 for none) and max_moves (or None); Stopped if ``stop`` says stop first."""
     K, T = len(ends), horizon
     bud, counted, radix = budgets(max_moves, T)
     configs, nxt_cfg, moved = _moves_of(neighbors.tobytes(), neighbors.shape[0], K)
@@ -174,7 +193,7 @@ def table(neighbors: np.ndarray, ends, max_moves, horizon: int) -> Table:
     alive = np.zeros((T, len(configs), M), dtype=np.uint8)
     alive[T - 1] = at_end[:, None] & within[None, :]
     strides = np.cumprod([1, *radix[::-1]])[:-1][::-1].astype(np.int64)
-    _alive_backwards(alive, within, nxt_cfg, moved, counted, bud, strides, mv_idx)
+    _alive_backwards(alive, within, nxt_cfg, moved, counted, bud, strides, mv_idx, stop)
     return Table(alive, configs, nxt_cfg, moved, mv_idx, strides, counted, bud, neighbors.shape[0])
 
 

@@ -150,3 +150,16 @@ def test_robots_that_can_only_pass_by_swapping_are_infeasible():
         r = voiopt.solve(undecided(d), method=method, episodes=10)
         assert r.status == "infeasible" and r.plan is None and r.value is None
         assert "no joint plan keeps the rules between robots" in r.solver["note"]
+
+
+def test_a_time_limit_stops_the_build_of_the_table_of_legal_joint_states():
+    """Two robots on a factory floor (21 x 21 points) with ends and binding budgets: the table
+    of legal joint states took 9 s to build, and the time limit was only checked after it (a
+    fuzz campaign, 2026-12-02). The build now checks the stop rule; the plan is greedy's,
+    stopped at once, legal and valued by the simulator."""
+    inst = voiopt.generate_set(1, seed=1030, preset="factory", n_sensors=3, horizon=11, robots=2, max_moves=8)[0]
+    r = voiopt.solve(inst, "qlearning", "mean-min-voi", time_limit=0.3, episodes=1000)
+    assert r.status == "time_limit" and r.runtime_s <= 0.3 * 1.1 + 1
+    assert "table of legal joint states" in r.solver["note"]
+    d = inst.to_dict()
+    assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)

@@ -193,8 +193,9 @@ def _budgets(instance: Instance, lats) -> tuple[np.ndarray, np.ndarray, list[int
     return joint.budgets([lat.budget for lat in lats], instance.horizon)
 
 
-def _alive_table(instance: Instance, lats) -> joint.Table:
-    return joint.table(lats[0].neighbors, [lat.end for lat in lats], [lat.budget for lat in lats], instance.horizon)
+def _alive_table(instance: Instance, lats, stop=None) -> joint.Table:
+    return joint.table(lats[0].neighbors, [lat.end for lat in lats], [lat.budget for lat in lats], instance.horizon,
+                       stop)
 
 
 LEGAL_PATHS_CELLS = joint.CELLS
@@ -223,15 +224,16 @@ def _no_joint_plan(instance: Instance) -> str:
 
 
 def build(instance: Instance, reward: str = "voi", penalty: float = mdp_mod.IDLE_PENALTY,
-          slot_in_state: bool = False, reward_units: str = "bit/s") -> FleetMDP:
-    """The joint MDP of a fleet instance (K >= 2 robots)."""
+          slot_in_state: bool = False, reward_units: str = "bit/s", stop=None) -> FleetMDP:
+    """The joint MDP of a fleet instance (K >= 2 robots); joint.Stopped if ``stop`` says stop
+    while its table of legal joint states is built."""
     K = instance.n_robots
     one = mdp_mod.build(instance.robot(0), reward, penalty, slot_in_state, reward_units)
     lats = [lattice_mod.build(instance.robot(k)) for k in range(K)]
     budgets, counted, radix = _budgets(instance, lats)
     masked = bool(counted.any() or any(lat.end >= 0 for lat in lats))
     if masked:
-        alive = _alive_table(instance, lats).alive
+        alive = _alive_table(instance, lats, stop).alive
     else:
         alive = np.ones((1, 1, 1), dtype=np.uint8)
     starts = np.array([lat.start for lat in lats], dtype=np.int64)

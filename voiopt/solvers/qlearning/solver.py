@@ -115,10 +115,19 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     startup_s = warm_up(bool(instance.fleet))
     with watch(time_limit, memory_limit) as stop:
         try:
-            model = build(instance, reward, penalty, slot_in_state, reward_units)
+            model = build(instance, reward, penalty, slot_in_state, reward_units,
+                          **({"stop": stop} if instance.fleet else {}))
         except joint.NoJointPlan as e:  # proven: no legal plan to learn
             return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
                                     solver={"note": str(e), "startup_s": startup_s})
+        except joint.Stopped:  # nothing learnt: greedy's plan once stopped (no uploads, robots heading home)
+            from voiopt.solvers.baselines import greedy
+
+            plan = greedy(instance, objective, time_limit=1e-9, memory_limit=memory_limit).plan
+            return Result.from_plan(instance, method, objective, plan, status=stop.reason, runtime_s=stop.elapsed(),
+                                    solver={"note": "stopped while building the table of legal joint states; the "
+                                            "plan is greedy's, stopped at once", "stopped": stop.describe(),
+                                            "startup_s": startup_s})
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
         eps = np.array([1.0])
         eps0 = 1.0 / episodes
