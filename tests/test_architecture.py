@@ -6,9 +6,13 @@ from __future__ import annotations
 
 import ast
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
+
+import voiopt
 
 PACKAGE = Path(__file__).resolve().parent.parent / "voiopt"
 MODULES = {
@@ -99,3 +103,20 @@ def test_objective_names_are_written_out_in_at_most_two_modules():
     holders = sorted(m for m, p in MODULES.items() if names.search(p.read_text()))
     assert len(holders) <= 2, holders
     assert "voiopt.objectives" in holders
+
+
+def test_import_voiopt_is_light_and_its_names_are_the_documented_ones():
+    """``import voiopt`` imports no numpy (the command catches a Ctrl-C from its first moments,
+    voiopt.__main__); every name of ``__all__`` is there when used, and ``voiopt.simulate`` and
+    ``voiopt.generate`` stay the functions once the modules of the same names are imported."""
+    code = (
+        "import sys, voiopt; light = 'numpy' not in sys.modules\n"
+        "from voiopt.simulate import Trajectory\nimport voiopt.generate\n"
+        "names = {}\nexec('from voiopt import *', names)\n"
+        "print(light, callable(voiopt.simulate), callable(voiopt.generate), sorted(set(voiopt.__all__) - set(names)),"
+        " voiopt.simulate.__module__, voiopt.Trajectory is Trajectory)"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.stdout.split() == ["True", "True", "True", "[]", "voiopt.simulate", "True"], proc.stderr
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        voiopt.nope  # noqa: B018

@@ -144,6 +144,30 @@ def test_a_second_ctrl_c_exits_at_once():
     assert proc.returncode == 130 and time.monotonic() - t0 < 5
 
 
+
+STARTING = """
+import os, signal, sys
+class Interrupt:  # delivers a real Ctrl-C to this process the moment numpy starts to import
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy":
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.SIGINT)
+sys.meta_path.insert(0, Interrupt())
+sys.argv = ["voiopt", "solve", sys.argv[1], "--method", "dp"]
+from voiopt.__main__ import run  # what the console script runs
+run()
+"""
+
+
+def test_a_ctrl_c_while_the_command_starts_ends_it_in_one_line():
+    """A Ctrl-C while Python imports the command line (numpy, rich: a third of a second) ends
+    it with one line and status 130, not with the traceback of the import it fell in."""
+    proc = subprocess.run([sys.executable, "-c", STARTING, CASE], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 130, proc.stderr
+    assert one_line(proc.stderr) == "voiopt: interrupted (SIGINT) while starting; nothing was done"
+    assert proc.stdout == ""
+
+
 # -------------------------------------------------------------------------------- limits
 
 

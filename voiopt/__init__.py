@@ -3,22 +3,70 @@
     import voiopt
     inst = voiopt.load("instances/case-study.json")
     metrics = voiopt.evaluate(inst, plan)
+
+The names below are imported when first used (PEP 562), so that ``import voiopt`` costs next
+to nothing: the ``voiopt`` command can then catch a Ctrl-C from its first moments, while numpy
+and the rest are still importing (voiopt.__main__).
 """
 
-from voiopt.errors import InstanceError, OptionError, PlanError, VoioptError
-from voiopt.generate import case_study, generate, generate_set
-from voiopt.instance import Channel, Instance, Robot, Sensor, load, save
-from voiopt.objectives import OBJECTIVES
-from voiopt.plan import FleetPlan, Plan, load_plan
-from voiopt.result import Result, load_result
-from voiopt.simulate import Trajectory, simulate
-from voiopt.solvers import METHODS, solve
+from __future__ import annotations
+
+import importlib
+import sys
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from voiopt.instance import Instance
+    from voiopt.plan import FleetPlan, Plan
 
 __version__ = "0.1.0"
 
+# name -> the module it lives in
+_HOMES = {
+    **dict.fromkeys(("InstanceError", "OptionError", "PlanError", "VoioptError"), "voiopt.errors"),
+    **dict.fromkeys(("case_study", "generate", "generate_set"), "voiopt.generate"),
+    **dict.fromkeys(("Channel", "Instance", "Robot", "Sensor", "load", "save"), "voiopt.instance"),
+    "OBJECTIVES": "voiopt.objectives",
+    **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.plan"),
+    **dict.fromkeys(("Result", "load_result"), "voiopt.result"),
+    **dict.fromkeys(("Trajectory", "simulate"), "voiopt.simulate"),
+    **dict.fromkeys(("METHODS", "solve"), "voiopt.solvers"),
+}
 
-def evaluate(instance: Instance, plan) -> dict[str, float]:
+
+def __getattr__(name: str):
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'voiopt' has no attribute {name!r}")
+    value = getattr(importlib.import_module(home), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_HOMES))
+
+
+class _Package(ModuleType):
+    """``voiopt.simulate`` and ``voiopt.generate`` are the functions, as they always were, even
+    once their modules (of the same names) are imported: Python would otherwise bind each
+    module to its name in the package. The modules stay in sys.modules."""
+
+    def __setattr__(self, name: str, value) -> None:
+        if isinstance(value, ModuleType) and _HOMES.get(name) == f"{__name__}.{name}":
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
+
+
+def evaluate(instance: Instance, plan: Plan | FleetPlan | dict) -> dict[str, float]:
     """The four metrics of a plan (a Plan or FleetPlan, or a dict holding a plan or a whole result)."""
+    from voiopt.plan import FleetPlan, Plan
+    from voiopt.simulate import simulate
+
     if not isinstance(plan, (Plan, FleetPlan)):
         plan = Plan.from_dict(plan)
     return simulate(instance, plan).metrics

@@ -409,9 +409,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        args = build_parser().parse_args(argv)
         return int(args.func(args) or 0)
     except VoioptError as e:
         err.print(f"voiopt: error: {e}", markup=False)
@@ -427,7 +426,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def run() -> None:
-    """Console-script entry point (and ``python -m voiopt``): one command, then exit.
+    """One command, then exit (the console script and ``python -m voiopt`` call it, through
+    voiopt.__main__, which catches a Ctrl-C while this module imports).
 
     A ``solve`` runs without Python's cyclic garbage collector: importing numba and loading its
     cached kernels build a large graph of long-lived objects, which collections would walk again
