@@ -59,6 +59,17 @@ def _reject_constant(name: str) -> float:
     raise ValueError(f"{name} is not allowed")
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict:
+    """An object's members; a name given twice is refused (JSON leaves its meaning open, and
+    Python's decoder would keep the last one silently: a second "rho" would hide the first)."""
+    d = dict(pairs)
+    if len(d) != len(pairs):
+        seen = set()
+        twice = next(k for k, _ in pairs if k in seen or seen.add(k))
+        raise ValueError(f"the key {twice!r} is given twice in one object")
+    return d
+
+
 def _depth(brackets: bytes) -> int:
     """The deepest nesting of a string of brackets, in C-speed chunks of 2**20."""
     deepest = level = 0
@@ -99,13 +110,13 @@ def _decode(text: str) -> Any:
     limit = getattr(sys, "get_int_max_str_digits", lambda: 0)()
     if 0 < limit <= 10 * MAX_INT_DIGITS:
         try:
-            return json.loads(text, parse_constant=_reject_constant)
+            return json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_unique_keys)
         except json.JSONDecodeError:
             raise
         except ValueError as e:
             if "integer string conversion" not in str(e):
                 raise
-    return json.loads(text, parse_constant=_reject_constant, parse_int=_parse_int)
+    return json.loads(text, parse_constant=_reject_constant, parse_int=_parse_int, object_pairs_hook=_unique_keys)
 
 
 def loads_json(text: str, error: type[Exception] = InstanceError, where: str = "") -> Any:
@@ -121,7 +132,7 @@ def loads_json(text: str, error: type[Exception] = InstanceError, where: str = "
         raise error(f"{prefix}invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}") from None
     except RecursionError:
         raise error(f"{prefix}invalid JSON: nested too deeply") from None
-    except ValueError as e:  # NaN / Infinity
+    except ValueError as e:  # NaN / Infinity, a key given twice
         raise error(f"{prefix}invalid JSON: {e}") from None
 
 
