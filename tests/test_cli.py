@@ -344,3 +344,23 @@ def test_plot_finds_the_instance_beside_the_result_or_in_the_folder_above(capsys
     for path in (result, tmp_path / "dock.json"):
         code, _, err = run(capsys, "plot", str(path), "-o", "q.png")
         assert code == 2 and "--instance: give the instance of result 'dock' (no dock.json beside" in one_line_error(err)
+
+
+def test_a_command_stopped_as_a_whole_says_whether_it_kept_results(capsys, monkeypatch, tmp_path):
+    """A stop that ends the whole command (a second Ctrl-C, or one before a solve's stop rule is
+    in place) ends it in one line: a sweep keeps the runs it finished, a solve keeps nothing."""
+    from voiopt.experiments import gaps
+    from voiopt.stop import Interrupted
+
+    def stopped(*args, **kw):
+        raise Interrupted(2)
+
+    monkeypatch.setattr("voiopt.cli.instance_mod.load", stopped)
+    code, out, err = run(capsys, "solve", CASE, "-o", str(tmp_path / "r.json"))
+    assert (code, out) == (130, "")
+    assert one_line_error(err) == "voiopt: interrupted (SIGINT); the command did not finish"
+    assert not (tmp_path / "r.json").exists()
+    monkeypatch.setattr(gaps, "gap_report", stopped)
+    code, out, err = run(capsys, "gap-report", CASE, "-o", str(tmp_path / "report"))
+    assert (code, out) == (130, "")
+    assert one_line_error(err) == "voiopt: interrupted (SIGINT); finished results are kept"
