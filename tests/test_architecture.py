@@ -108,15 +108,16 @@ def test_objective_names_are_written_out_in_at_most_two_modules():
 def test_import_voiopt_is_light_and_its_names_are_the_documented_ones():
     """``import voiopt`` imports no numpy (the command catches a Ctrl-C from its first moments,
     voiopt.__main__); every name of ``__all__`` is there when used, and ``voiopt.simulate`` and
-    ``voiopt.generate`` stay the functions once the modules of the same names are imported."""
+    ``voiopt.generate`` stay the functions once the modules of the same names are imported; a
+    module of the package is there when used (``voiopt.physics``), as the eager imports made it."""
     code = (
         "import sys, voiopt; light = 'numpy' not in sys.modules\n"
         "from voiopt.simulate import Trajectory\nimport voiopt.generate\n"
         "names = {}\nexec('from voiopt import *', names)\n"
         "print(light, callable(voiopt.simulate), callable(voiopt.generate), sorted(set(voiopt.__all__) - set(names)),"
-        " voiopt.simulate.__module__, voiopt.Trajectory is Trajectory)"
+        " voiopt.simulate.__module__, voiopt.Trajectory is Trajectory, voiopt.physics.__name__)"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert proc.stdout.split() == ["True", "True", "True", "[]", "voiopt.simulate", "True"], proc.stderr
+    assert proc.stdout.split() == ["True", "True", "True", "[]", "voiopt.simulate", "True", "voiopt.physics"], proc.stderr
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         voiopt.nope  # noqa: B018

@@ -12,6 +12,7 @@ and the rest are still importing (voiopt.__main__).
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import sys
 from types import ModuleType
 from typing import TYPE_CHECKING
@@ -37,8 +38,10 @@ _HOMES = {
 
 def __getattr__(name: str):
     home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module 'voiopt' has no attribute {name!r}")
+    if home is None:  # a module of the package (voiopt.physics), as an eager import made it
+        if name.startswith("__") or importlib.util.find_spec(f"{__name__}.{name}") is None:
+            raise AttributeError(f"module 'voiopt' has no attribute {name!r}")
+        return importlib.import_module(f"{__name__}.{name}")
     value = getattr(importlib.import_module(home), name)
     globals()[name] = value
     return value
