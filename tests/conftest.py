@@ -116,6 +116,13 @@ def fleet_instances(count: int = 12, seed: int = 4242) -> list[voiopt.Instance]:
     return out
 
 
+# two robots that could pass each other only by a swap (the oracle counts no legal plan)
+SWAP_ONLY = {"name": "swap-only", "area": {"width": 2, "height": 1}, "horizon": 10,
+             "robots": [{"start": [0, 0], "end": [0, 1]}, {"start": [1, 1], "end": [0, 0]}],
+             "blocked": [[1, 0]],
+             "sensors": [{"position": [0.54, 0.8], "rho": 0.519}, {"position": [1.72, 0.4], "rho": 0.414}]}
+
+
 def undecided(d: dict) -> voiopt.Instance:
     """The instance of ``d`` as the loader admits a fleet too large for its check that some
     joint plan exists (voiopt.joint.possible answers None): the solvers must then prove that

@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import fleet_instances, oracle_optima, undecided
+from conftest import SWAP_ONLY, fleet_instances, oracle_optima, undecided
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -211,12 +211,6 @@ def test_the_loader_and_exact_legal_paths_agree_with_the_oracle():
             fleet_mdp.legal_paths(undecided(d))
 
 
-SWAP_ONLY = {"name": "swap-only", "area": {"width": 2, "height": 1}, "horizon": 10,
-             "robots": [{"start": [0, 0], "end": [0, 1]}, {"start": [1, 1], "end": [0, 0]}],
-             "blocked": [[1, 0]],
-             "sensors": [{"position": [0.54, 0.8], "rho": 0.519}, {"position": [1.72, 0.4], "rho": 0.414}]}
-
-
 @pytest.mark.parametrize("method", [*METHODS, "milp"])
 def test_no_joint_plan_is_proved_within_the_time_limit(method):
     """Only a swap would let these robots pass (the oracle counts no legal plan): after the
@@ -244,3 +238,38 @@ def test_a_lattice_packed_with_robots_gets_its_one_legal_plan_within_the_time_li
     assert r.status in ("feasible", "time_limit") and r.runtime_s <= 3 * 1.1 + 1
     assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
     assert all(len(set(robot.positions)) == 1 for robot in r.plan.robots)
+
+
+def test_a_walk_whose_joint_moves_were_cut_short_proves_nothing():
+    """35 robots on 6 x 6 points, the robot beside the hole bound to end in it at T = 2: no
+    robot may stay the whole plan, so the cut enumeration's one offer (everyone stays) fails.
+    The walker then ran out of joint moves and called that a proof: greedy and milp (which
+    trusts greedy's proofs) said infeasible (a review, 2026-12-02). A legal plan exists."""
+    d = voiopt.generate(2, 2, seed=1).to_dict()
+    d.pop("start")
+    points = [(x, y) for y in range(6) for x in range(6) if (x, y) != (5, 5)]
+    d["robots"] = [{"start": [float(x), float(y)], **({"end": [5.0, 5.0]} if (x, y) == (4, 5) else {})}
+                   for x, y in points]
+    inst = from_dict(d)
+    legal = voiopt.solve(inst, "shortest-path")
+    assert legal.status == "feasible"
+    assert legal.value == pytest.approx(oracle.simulate(d, legal.plan.to_dict())["mean-min-voi"], rel=1e-12)
+    greedy = voiopt.solve(inst, "greedy", time_limit=10)
+    assert greedy.status != "infeasible", greedy.solver
+    exact = voiopt.solve(inst, "milp", time_limit=30)
+    assert exact.status == "optimal" and exact.value >= legal.value
+    assert exact.value == pytest.approx(oracle.simulate(d, exact.plan.to_dict())["mean-min-voi"], rel=1e-12)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_stopped_walk_finishes_however_many_slots_are_left(method):
+    """Once stopped, the robots head for their ends, one joint move per slot. The walker gave
+    up after MAX_TRIES_STOPPED joint moves, counted from the stop, so a stop with more slots
+    left than that (T = 1500, signalled in a fuzz campaign) ended with status error and no
+    plan, where three robots or more make the exact fallback's table too large. The budgets
+    now count only the tries beyond one per slot."""
+    inst = voiopt.generate(4, fleet_baselines.MAX_TRIES_STOPPED + 100, seed=3, robots=3, end="start")
+    r = voiopt.solve(inst, method, time_limit=1e-9)
+    assert r.status == "time_limit" and r.plan is not None, r.solver
+    d = inst.to_dict()
+    assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)

@@ -28,7 +28,7 @@ from voiopt.simulate import advance
 from voiopt.stop import Stop
 
 MAX_JOINT_UPLOADS = 4096  # joint upload choices scored exhaustively per slot; above, robot by robot
-MAX_TRIES = 20_000  # joint moves the walker may try before it gives up (about 15 s for greedy)
+MAX_TRIES = 20_000  # joint moves the walker may try beyond one per slot before it gives up (about 15 s for greedy)
 MAX_TRIES_STOPPED = 500  # and once the stop rule has fired (then robots only head home)
 MAX_NODES = 20_000  # partial joint moves one slot's enumeration may visit (on a packed lattice it is exponential)
 
@@ -50,7 +50,7 @@ class _Cut(Exception):
 
 
 def _joint_options(lats, cur: tuple[int, ...], used: tuple[int, ...], t: int,
-                   prefer: Callable[[int, list[int]], list[int]], stop: Stop) -> Iterator[tuple[int, ...]]:
+                   prefer: Callable[[int, list[int]], list[int]], stop: Stop, cuts: list[int]) -> Iterator[tuple[int, ...]]:
     """The joint next points for slot t + 1 in lexicographic order of the robots' preferences
     (robot 0's first), legal by MODEL.md sections 9 and 10.
 
@@ -58,7 +58,8 @@ def _joint_options(lats, cur: tuple[int, ...], used: tuple[int, ...], t: int,
     robots later, and the search is exponential: 36 robots on 6 x 6 points did not finish one
     slot in 11 minutes. So after MAX_NODES partial choices, or once the stop rule fires, it
     ends with every robot staying where it is (never a shared point or a swap), if each may
-    stay and still finish."""
+    stay and still finish. Each cut appends t to ``cuts``: a walk that then runs out of joint
+    moves has proven nothing."""
     K = len(cur)
     choices = []
     for k, lat in enumerate(lats):
@@ -84,6 +85,7 @@ def _joint_options(lats, cur: tuple[int, ...], used: tuple[int, ...], t: int,
         try:
             yield from rec(0, ())
         except _Cut:
+            cuts.append(t)
             if all(cur[k] in choices[k] for k in range(K)):
                 yield tuple(cur)
 
@@ -103,16 +105,16 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
     K, T = instance.n_robots, instance.horizon
     cur0 = tuple(lat.start for lat in lats)
     frames = []  # per slot t: (cur, used, uploads, state after uploads, options)
-    tries, stopped_at = 0, None
+    tries, stopped_at, cuts = 0, None, []
 
     def open_frame(t, cur, used, state):
         if stop.check():
             uploads, after = (-1,) * K, state
-            order = _homeward(lats)
+            order = _homeward(lats, cur)
         else:
             uploads, after = begin(t, cur, state)
             order = prefer(t, cur, after)
-        opts = _joint_options(lats, cur, used, t, order, stop) if t + 1 < T else iter([None])
+        opts = _joint_options(lats, cur, used, t, order, stop, cuts) if t + 1 < T else iter([None])
         frames.append((cur, used, tuple(uploads), after, opts))
 
     open_frame(0, cur0, (0,) * K, state0)
@@ -127,23 +129,25 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
             break  # the last slot: done
         tries += 1
         if stop.requested and stopped_at is None:
-            stopped_at = tries
-        if tries > MAX_TRIES or stopped_at is not None and tries - stopped_at > MAX_TRIES_STOPPED:
+            stopped_at = tries - t  # a plan needs one joint move per slot: budgets count the tries beyond
+        if tries - t > MAX_TRIES or stopped_at is not None and tries - t - stopped_at > MAX_TRIES_STOPPED:
             raise NoJointPlan(f"the conflict-free walker gave up after {tries - 1} joint moves (slot {t}"
                               f"{', stopped' if stopped_at is not None else ''})", False)
         new_used = tuple(u + (a != b) for u, a, b in zip(used, cur, nxt, strict=True))
         open_frame(t + 1, nxt, new_used, on_move(state, cur, nxt))
-    if not frames:
-        raise NoJointPlan("no conflict-free joint plan exists for these robots' starts, ends and budgets", True)
+    if not frames:  # every joint move tried: a proof, unless some slot's enumeration was cut short
+        raise NoJointPlan("no conflict-free joint plan exists for these robots' starts, ends and budgets"
+                          if not cuts else f"the conflict-free walker ran out of joint moves, some cut short (slot {cuts[0]})",
+                          not cuts)
     idx = np.array([f[0] for f in frames], dtype=np.int64).T
     sched = np.array([f[2] for f in frames], dtype=np.int64).T
     return idx, sched
 
 
-def _homeward(lats):
+def _homeward(lats, cur):
     """Preference once stopped: fewest moves to end first, staying on ties."""
     def order(k, ok):
-        return sorted(ok, key=lambda q: (lats[k].to_end[q], q))
+        return sorted(ok, key=lambda q: (lats[k].to_end[q], q != cur[k], q))
     return order
 
 
