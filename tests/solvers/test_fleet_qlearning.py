@@ -10,7 +10,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import fleet_instances, undecided
+from conftest import SWAP_ONLY, fleet_instances, undecided
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -163,3 +163,13 @@ def test_a_time_limit_stops_the_build_of_the_table_of_legal_joint_states():
     assert "table of legal joint states" in r.solver["note"]
     d = inst.to_dict()
     assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
+
+
+def test_stopped_while_building_the_table_with_no_plan_to_fall_back_on():
+    """Stopped while building the table of legal joint states, Q-learning falls back on
+    greedy's plan; where greedy has none (here none exists, past the loader's check), the
+    result says so instead of raising (a review, 2026-12-02: ValueError 'status time_limit
+    needs a plan')."""
+    r = voiopt.solve(undecided(SWAP_ONLY), "qlearning", time_limit=1e-9, episodes=10)
+    assert r.status == "infeasible" and r.plan is None
+    assert "greedy found no plan" in r.solver["note"] and "no legal joint plan" in r.solver["note"]

@@ -123,11 +123,14 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         except joint.Stopped:  # nothing learnt: greedy's plan once stopped (no uploads, robots heading home)
             from voiopt.solvers.baselines import greedy
 
-            plan = greedy(instance, objective, time_limit=1e-9, memory_limit=memory_limit).plan
-            return Result.from_plan(instance, method, objective, plan, status=stop.reason, runtime_s=stop.elapsed(),
-                                    solver={"note": "stopped while building the table of legal joint states; the "
-                                            "plan is greedy's, stopped at once", "stopped": stop.describe(),
-                                            "startup_s": startup_s})
+            walked = greedy(instance, objective, time_limit=1e-9, memory_limit=memory_limit)
+            note = "stopped while building the table of legal joint states; the plan is greedy's, stopped at once"
+            if walked.plan is None:  # greedy's walker proved there is no plan, or gave up
+                note = f"stopped while building the table of legal joint states; greedy found no plan: {walked.solver['note']}"
+            return Result.from_plan(instance, method, objective, walked.plan,
+                                    status=stop.reason if walked.plan is not None else walked.status,
+                                    runtime_s=stop.elapsed(),
+                                    solver={"note": note, "stopped": stop.describe(), "startup_s": startup_s})
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
         eps = np.array([1.0])
         eps0 = 1.0 / episodes
