@@ -8,6 +8,7 @@ import ast
 import re
 import subprocess
 import sys
+import typing
 from pathlib import Path
 
 import pytest
@@ -121,3 +122,5 @@ def test_import_voiopt_is_light_and_its_names_are_the_documented_ones():
     assert proc.stdout.split() == ["True", "True", "True", "[]", "voiopt.simulate", "True", "voiopt.physics"], proc.stderr
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         voiopt.nope  # noqa: B018
+    assert not hasattr(voiopt, "physics.voi") and not hasattr(voiopt, "__wrapped__")
+    assert typing.get_type_hints(voiopt.evaluate)["instance"] is voiopt.Instance

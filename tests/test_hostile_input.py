@@ -165,17 +165,18 @@ def test_5_hostile_plans(tmp_path, content, expected):
 
 
 def test_6_a_key_given_twice(tmp_path):
-    """A key given twice in one object is refused with its name (Python's decoder would keep the
-    last one silently): in an instance, in a sensor of it, and in a plan (also when the
-    decoder's slow path for long integers runs)."""
+    """A key given twice in one object is refused with its name, shortened (Python's decoder
+    would keep the last one silently): in an instance, in a sensor of it, and in a plan (also
+    when the decoder's slow path for long integers runs)."""
     text = json.dumps(GOOD)
     check_validate(tmp_path, {
-        "top": (text.replace('"horizon": ', '"horizon": 7, "horizon": ', 1), ["invalid JSON", "'horizon' is given twice"]),
-        "sensor": (text.replace('"rho": ', '"rho": 0.5, "rho": ', 1), ["invalid JSON", "'rho' is given twice"]),
+        "top": (text.replace('"horizon": ', '"horizon": 7, "horizon": ', 1), ["invalid JSON", '"horizon" is given twice']),
+        "sensor": (text.replace('"rho": ', '"rho": 0.5, "rho": ', 1), ["invalid JSON", '"rho" is given twice']),
         "long-int": (text.replace('"horizon": ', '"note": ' + "9" * 5000 + ', "horizon": 7, "horizon": ', 1),
-                     ["'horizon' is given twice"]),
+                     ['"horizon" is given twice']),
+        "long-key": ('{"' + "k" * 10**6 + '": 1, "' + "k" * 10**6 + '": 2}', ['"kkkk', 'kkk... is given twice']),
     })
     plan = write(tmp_path, "plan", json.dumps(GOOD_PLAN).replace('"schedule": ', '"schedule": [], "schedule": ', 1))
     r = voiopt("evaluate", str(CASE_STUDY), str(plan), cwd=tmp_path)
     assert r.returncode == 2 and "Traceback" not in r.stderr
-    assert r.stderr.splitlines() == [f"voiopt: error: {plan}: invalid JSON: the key 'schedule' is given twice in one object"]
+    assert r.stderr.splitlines() == [f'voiopt: error: {plan}: invalid JSON: the key "schedule" is given twice in one object']

@@ -15,11 +15,8 @@ import importlib
 import importlib.util
 import sys
 from types import ModuleType
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from voiopt.instance import Instance
-    from voiopt.plan import FleetPlan, Plan
+from voiopt.errors import VoioptError
 
 __version__ = "0.1.0"
 
@@ -31,7 +28,7 @@ _HOMES = {
     "OBJECTIVES": "voiopt.objectives",
     **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.plan"),
     **dict.fromkeys(("Result", "load_result"), "voiopt.result"),
-    **dict.fromkeys(("Trajectory", "simulate"), "voiopt.simulate"),
+    **dict.fromkeys(("Trajectory", "evaluate", "simulate"), "voiopt.simulate"),
     **dict.fromkeys(("METHODS", "solve"), "voiopt.solvers"),
 }
 
@@ -39,9 +36,15 @@ _HOMES = {
 def __getattr__(name: str):
     home = _HOMES.get(name)
     if home is None:  # a module of the package (voiopt.physics), as an eager import made it
-        if name.startswith("__") or importlib.util.find_spec(f"{__name__}.{name}") is None:
-            raise AttributeError(f"module 'voiopt' has no attribute {name!r}")
-        return importlib.import_module(f"{__name__}.{name}")
+        missing = AttributeError(f"module 'voiopt' has no attribute {name!r}")
+        if not name.isidentifier() or name.startswith("__"):
+            raise missing
+        try:
+            if importlib.util.find_spec(f"{__name__}.{name}") is None:
+                raise missing
+            return importlib.import_module(f"{__name__}.{name}")
+        except (ImportError, VoioptError) as e:  # a module of an extra not installed: hasattr says False
+            raise missing from e
     value = getattr(importlib.import_module(home), name)
     globals()[name] = value
     return value
@@ -63,16 +66,6 @@ class _Package(ModuleType):
 
 
 sys.modules[__name__].__class__ = _Package
-
-
-def evaluate(instance: Instance, plan: Plan | FleetPlan | dict) -> dict[str, float]:
-    """The four metrics of a plan (a Plan or FleetPlan, or a dict holding a plan or a whole result)."""
-    from voiopt.plan import FleetPlan, Plan
-    from voiopt.simulate import simulate
-
-    if not isinstance(plan, (Plan, FleetPlan)):
-        plan = Plan.from_dict(plan)
-    return simulate(instance, plan).metrics
 
 
 __all__ = [

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from voiopt._checker import show
 from voiopt.errors import InstanceError, OptionError
 
 # Limits of every JSON file voiopt reads. A plan at the horizon cap (10**6 slots) has about
@@ -66,7 +67,7 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict:
     if len(d) != len(pairs):
         seen = set()
         twice = next(k for k, _ in pairs if k in seen or seen.add(k))
-        raise ValueError(f"the key {twice!r} is given twice in one object")
+        raise ValueError(f"the key {show(twice)} is given twice in one object")
     return d
 
 

@@ -421,7 +421,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt as e:  # a sweep stopped as a whole, or a second Ctrl-C
         code = getattr(e, "exit_code", 128 + (last_signal() or signal.SIGINT))
-        sweep = args is not None and (args.command in ("gap-report", "figures") or getattr(args, "bench_command", "") == "certify")
+        sweep = args is not None and (args.command in ("gap-report", "figures", "demo")
+                                      or getattr(args, "bench_command", "") == "certify")
         kept = "finished results are kept" if sweep else "the command did not finish"
         err.print(f"voiopt: interrupted ({signal.Signals(code - 128).name}); {kept}", markup=False)
         return code

@@ -167,7 +167,9 @@ def simulate_indices(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> 
     return Trajectory(idx, sched, aoi, dist, v, metrics_of(aoi, v))
 
 
-def evaluate(instance: Instance, plan: Plan | FleetPlan) -> dict[str, float]:
-    """The four metrics of a plan (raises PlanError if the plan is illegal)."""
+def evaluate(instance: Instance, plan: Plan | FleetPlan | dict) -> dict[str, float]:
+    """The four metrics of a plan (a Plan or FleetPlan, or a dict holding a plan or a whole
+    result); PlanError if the plan is illegal."""
+    if not isinstance(plan, (Plan, FleetPlan)):
+        plan = Plan.from_dict(plan)
     return simulate(instance, plan).metrics
-

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from voiopt import instance as instance_mod
-from voiopt._files import atomic_write, read_json, safe_name, write_json_atomic
+from voiopt._files import atomic_write, loads_json, read_json, safe_name, write_json_atomic
 from voiopt.errors import MissingExtraError, OptionError, VoioptError, WorkerDied, check_seed
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
@@ -390,8 +390,8 @@ def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--ou
     settings = json.loads(json.dumps(settings))  # the form it has on disk
     if path.is_file():
         try:
-            old = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            old = loads_json(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError, VoioptError):
             old = None
         if old != settings:
             diff = sorted(k for k in set(settings) | set(old or {}) if (old or {}).get(k) != settings.get(k))
