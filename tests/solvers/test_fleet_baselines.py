@@ -273,3 +273,15 @@ def test_a_stopped_walk_finishes_however_many_slots_are_left(method):
     assert r.status == "time_limit" and r.plan is not None, r.solver
     d = inst.to_dict()
     assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
+
+
+@pytest.mark.parametrize("end", [None, "start"])
+def test_a_stopped_walk_at_a_long_horizon_stops_within_the_limit(end):
+    """Once stopped, robots at their ends (or with none) stay there to the last slot, filled in
+    at once: at T = 10^5 the walk took 8 to 10 s after a 2 s limit, one joint move per slot
+    (here T = 30,000: 2 to 3 s)."""
+    inst = voiopt.generate(4, 30_000, seed=5, robots=3, end=end)
+    r = voiopt.solve(inst, "greedy", time_limit=0.2)
+    assert r.status == "time_limit" and r.runtime_s <= 0.2 * 1.1 + 1
+    d = inst.to_dict()
+    assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)

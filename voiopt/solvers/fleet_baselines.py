@@ -100,7 +100,7 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
     orders robot k's legal next points; ``on_move(state, cur, nxt) -> state``. ``state`` is
     the heuristic's own (ages, distances, walk pointers; ``state0`` in slot 0), kept per slot
     so that backtracking restores it. Once the stop rule fires, robots head for their ends
-    without uploads."""
+    without uploads, and stay there to the last slot (filled in at once: T may be 10^6)."""
     lats = _lattices(instance)
     K, T = instance.n_robots, instance.horizon
     cur0 = tuple(lat.start for lat in lats)
@@ -118,9 +118,13 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
         frames.append((cur, used, tuple(uploads), after, opts))
 
     open_frame(0, cur0, (0,) * K, state0)
+    home = 0  # slots after the last frame in which every robot stays, without uploads
     while frames:
         t = len(frames) - 1
         cur, used, uploads, state, opts = frames[-1]
+        if stop.requested and all(lat.to_end[c] == 0 for lat, c in zip(lats, cur, strict=True)):
+            home = T - 1 - t  # stopped, and every robot at its end (or with none): staying is legal to the last slot
+            break
         nxt = next(opts, False)
         if nxt is False:
             frames.pop()  # no legal joint move left from here: back to the slot before
@@ -139,8 +143,8 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
         raise NoJointPlan("no conflict-free joint plan exists for these robots' starts, ends and budgets"
                           if not cuts else f"the conflict-free walker ran out of joint moves, some cut short (slot {cuts[0]})",
                           not cuts)
-    idx = np.array([f[0] for f in frames], dtype=np.int64).T
-    sched = np.array([f[2] for f in frames], dtype=np.int64).T
+    idx = np.array([f[0] for f in frames] + [frames[-1][0]] * home, dtype=np.int64).T
+    sched = np.array([f[2] for f in frames] + [(-1,) * K] * home, dtype=np.int64).T
     return idx, sched
 
 
