@@ -20,6 +20,7 @@ import numpy as np
 from voiopt import _grid, _numba_start
 from voiopt._jit import njit
 from voiopt.errors import OptionError
+from voiopt.stop import Stopped
 
 CELLS = 5 * 10**6  # the most joint points x slots (or x joint moves) tabulated by legal_paths (about 1 s)
 WORK = 6 * 10**8  # the most entries x joint moves validation tabulates (about 1 s: up to 5**K moves tried per entry)
@@ -146,13 +147,9 @@ def _alive_slot(alive, t, c_lo, c_hi, within, nxt_cfg, moved, counted, budgets, 
 CHUNK = 4096  # joint points per kernel call: the stop rule is checked between calls
 
 
-class Stopped(Exception):
-    """The table was not finished: the stop rule said stop."""
-
-
 def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, mv_idx, stop=None) -> None:
     """Fill alive[t] for t = T-2 .. 0 from alive[t + 1], CHUNK joint points at a time, checking
-    ``stop`` (voiopt.stop.Stop) between them (Stopped): two robots on a 21 x 21 factory floor
+    ``stop`` (voiopt.stop.Stop) between them (voiopt.stop.Stopped): two robots on a 21 x 21 factory floor
     with ends took 8 s, past any time limit. The step from one slot to the one before does not
     depend on the slot, so once a slot equals the next one, every earlier slot equals it too:
     they are copied, not computed (a long horizon costs little)."""

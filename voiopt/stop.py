@@ -80,6 +80,11 @@ class Stop:
         return "not stopped"
 
 
+class Stopped(Exception):
+    """Work that cannot hand over a partial result (a table, a model) was cut short: the stop
+    rule said stop. Its caller falls back on a plan it can make at once."""
+
+
 class Interrupted(KeyboardInterrupt):
     """Work stopped by a signal as a whole (a sweep, or a second Ctrl-C). ``exit_code`` is
     128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM."""

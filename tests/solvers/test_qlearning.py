@@ -150,6 +150,22 @@ def test_stops_cleanly_at_the_memory_limit_and_time_limit():
     assert r.status == "time_limit" and "time limit" in r.solver["stopped"]
 
 
+def test_a_limit_stops_the_build_of_the_voi_table_and_its_blocks_change_no_bit(monkeypatch):
+    """The MDP's table of VoI (sensors x ages up to T x distances, a few hundred ns an entry)
+    took 20 s at T = 3 x 10^5 and ran past any time limit, as did the first 2000 episodes of
+    300,000 steps each. It is now computed a block of ages at a time, the stop rule checked
+    between blocks; stopped there, the robot heads for its end (or stays) without uploads. The
+    blocks change no bit of the table, and the first call of the kernel is sized in steps."""
+    inst = voiopt.generate(3, 40, seed=4, end="random")
+    whole = mdp.build(inst).voi_reward
+    monkeypatch.setattr(mdp, "VOI_BLOCK", 7)  # one age per block, and a last block of its own
+    assert np.array_equal(mdp.build(inst).voi_reward, whole)
+    r = ql.solve(inst, time_limit=1e-9, episodes=10)
+    assert r.status == "time_limit" and "MDP's tables" in r.solver["note"]
+    assert all(u is None for u in r.plan.schedule) and r.metrics == voiopt.evaluate(inst, r.plan)
+    assert r.plan.positions[-1] == inst.end
+
+
 @pytest.mark.parametrize("limit", [0.004, 0.008, 0.016])
 def test_what_the_table_holds_stays_within_the_memory_limit(monkeypatch, limit):
     """Table, pool and the doubled table allocated ahead of a growth (QTable._prepare), together,

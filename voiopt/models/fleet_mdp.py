@@ -225,10 +225,10 @@ def _no_joint_plan(instance: Instance) -> str:
 
 def build(instance: Instance, reward: str = "voi", penalty: float = mdp_mod.IDLE_PENALTY,
           slot_in_state: bool = False, reward_units: str = "bit/s", stop=None) -> FleetMDP:
-    """The joint MDP of a fleet instance (K >= 2 robots); joint.Stopped if ``stop`` says stop
-    while its table of legal joint states is built."""
+    """The joint MDP of a fleet instance (K >= 2 robots); voiopt.stop.Stopped if ``stop`` says
+    stop while its tables (VoI, legal joint states) are built."""
     K = instance.n_robots
-    one = mdp_mod.build(instance.robot(0), reward, penalty, slot_in_state, reward_units)
+    one = mdp_mod.build(instance.robot(0), reward, penalty, slot_in_state, reward_units, stop)
     lats = [lattice_mod.build(instance.robot(k)) for k in range(K)]
     budgets, counted, radix = _budgets(instance, lats)
     masked = bool(counted.any() or any(lat.end >= 0 for lat in lats))

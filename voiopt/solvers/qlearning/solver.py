@@ -25,9 +25,12 @@ from voiopt.solvers.qlearning import _fleet
 from voiopt.solvers.qlearning._kernels import rollout, train
 from voiopt.solvers.qlearning._qtable import QTable
 from voiopt.solvers.qlearning._rng import seed_state
-from voiopt.stop import MEMORY_LIMIT, watch
+from voiopt.stop import MEMORY_LIMIT, Stopped, watch
 
 BETA, GAMMA, EPISODES = 0.75, 0.9, 1_000_000
+# steps (episodes x T) of the kernel's first call, and the fewest and most of any call; the stop
+# rule is checked between calls, which aim at 0.25 s each (2000, 100 and 200,000 episodes at T = 30)
+FIRST_STEPS, MIN_STEPS, MAX_STEPS = 60_000, 3_000, 6_000_000
 
 
 def warm_up(fleet: bool = False) -> float:
@@ -115,27 +118,22 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     startup_s = warm_up(bool(instance.fleet))
     with watch(time_limit, memory_limit) as stop:
         try:
-            model = build(instance, reward, penalty, slot_in_state, reward_units,
-                          **({"stop": stop} if instance.fleet else {}))
+            model = build(instance, reward, penalty, slot_in_state, reward_units, stop=stop)
         except joint.NoJointPlan as e:  # proven: no legal plan to learn
             return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
                                     solver={"note": str(e), "startup_s": startup_s})
-        except joint.Stopped:  # nothing learnt: greedy's plan once stopped (no uploads, robots heading home)
-            from voiopt.solvers.baselines import greedy
-
-            walked = greedy(instance, objective, time_limit=1e-9, memory_limit=memory_limit)
-            note = "stopped while building the table of legal joint states; the plan is greedy's, stopped at once"
-            if walked.plan is None:  # greedy's walker proved there is no plan, or gave up
-                note = f"stopped while building the table of legal joint states; greedy found no plan: {walked.solver['note']}"
-            return Result.from_plan(instance, method, objective, walked.plan,
-                                    status=stop.reason if walked.plan is not None else walked.status,
+        except Stopped:  # nothing learnt: the plan of a stopped heuristic (no uploads, robots heading home)
+            plan, status, note = _stopped_plan(instance, objective, memory_limit)
+            return Result.from_plan(instance, method, objective, plan, status=status or stop.reason,
                                     runtime_s=stop.elapsed(),
-                                    solver={"note": note, "stopped": stop.describe(), "startup_s": startup_s})
+                                    solver={"note": f"stopped while building the MDP's tables; {note}",
+                                            "stopped": stop.describe(), "startup_s": startup_s})
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
         eps = np.array([1.0])
         eps0 = 1.0 / episodes
         rng = np.array([seed_state(seed)], dtype=np.uint64)
-        done, chunk = 0, 2000
+        T = instance.horizon
+        done, chunk = 0, max(FIRST_STEPS // T, 1)  # in episodes; one episode at T = 10^6 is about 0.1 s
         columns = (TextColumn("eps {task.fields[eps]:.3f}"), TextColumn("greedy plan {task.fields[greedy]}"),
                    TextColumn("states {task.fields[states]}"))
         with progress_bar(progress, *columns) as bar:
@@ -146,7 +144,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
                 ran, fits = train_fn(model, table, n, eps, eps0, beta, gamma, rng)
                 done += ran
                 elapsed = time.perf_counter() - c0
-                chunk = int(min(max(chunk * min(4.0, 0.25 / max(elapsed, 1e-3)), 100), 200_000))
+                chunk = max(int(min(max(chunk * min(4.0, 0.25 / max(elapsed, 1e-3)), MIN_STEPS // T), MAX_STEPS // T)), 1)
                 idx, sched = rollout_fn(model, table)
                 value = simulate_indices(instance, idx, sched).metrics[objective]
                 bar.update(task, completed=done, eps=max(float(eps[0]), 0.0), greedy=f"{value:.6g}",
@@ -175,6 +173,24 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         instance, method, objective, Plan.from_indices(instance, idx, sched),
         status=(stop.reason if done < episodes else None) or "feasible", runtime_s=stop.elapsed(), solver=solver,
     )
+
+
+def _stopped_plan(instance: Instance, objective: str, memory_limit: float) -> tuple[Plan | None, str | None, str]:
+    """The plan, its status if not the stop's, and a note, when Q-learning stops before it
+    learnt anything: one robot heads for its end (or stays) without uploads, as dp and beam's
+    idle plan; a fleet takes greedy's plan, stopped at once (its walker keeps the rules between
+    robots), or greedy's status and why where it has none."""
+    if not instance.fleet:
+        lat = lattice_mod.build(instance)
+        T = instance.horizon
+        return (Plan.from_indices(instance, [lat.start, *lat.walk_home(lat.start, T - 1)], np.full(T, -1)), None,
+                "the plan heads for the end (or stays) without uploads")
+    from voiopt.solvers.baselines import greedy
+
+    walked = greedy(instance, objective, time_limit=1e-9, memory_limit=memory_limit)
+    if walked.plan is None:  # greedy's walker proved there is no plan, or gave up
+        return None, walked.status, f"greedy found no plan: {walked.solver['note']}"
+    return walked.plan, None, "the plan is greedy's, stopped at once"
 
 
 def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = False,
