@@ -322,32 +322,40 @@ def closed_walk(instance: Instance, waypoints: list[int]) -> list[int]:
     return walk[:-1] if len(walk) > 1 else walk
 
 
+def _largest_aoi_uploads(instance: Instance, lat, positions: list[int]) -> list[int]:
+    """Each slot's upload: the sensor in range of the robot's point with the largest AoI, the
+    lowest index on ties (-1: none in range). The AoI of sensor i in slot t is t + off[i]
+    (MODEL.md section 3: every age grows by one, an upload's sensor is 1 in the next slot), so
+    the ages are never stored; plain ints, as T may be 10^6."""
+    in_range = [np.flatnonzero(lat.in_range[:, p]).tolist() for p in range(lat.n_points)]
+    off = [s.initial_aoi for s in instance.sensors]
+    sched = []
+    for t, p in enumerate(positions):
+        u = max(in_range[p], key=lambda i: (off[i], -i), default=-1)
+        if u >= 0:
+            off[u] = -t
+        sched.append(u)
+    return sched
+
+
 def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) -> Result:
     lat = lattice_mod.build(instance)
     waypoints, info = _tour(instance, stop, seed)
     cycle = closed_walk(instance, waypoints)
     positions = [lat.start]
     used, home = 0, False
-    for t in range(1, instance.horizon):  # the cycle while it leaves a way to end in time and budget
+    T, to_end, budget = instance.horizon, lat.to_end.tolist(), int(lat.budget)  # plain ints: T may be 10^6
+    for t in range(1, T):  # the cycle while it leaves a way to end in time and budget (lat.can_finish)
         p, q = positions[-1], cycle[t % len(cycle)]
-        home = home or not lat.can_finish(q, t, used + (q != p))
+        moves = used + (q != p)
+        home = home or not (to_end[q] <= min(T - 1 - t, budget - moves) and moves <= budget)
         if home:
             q = lat.walk_home(p, 1)[0]
         used += q != p
         positions.append(q)
     if home:
-        info["heads_home_from_slot"] = next(t for t in range(instance.horizon)
-                                            if positions[t] != cycle[t % len(cycle)])
-    aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
-    idx, sched = [], []
-    for t in range(instance.horizon):
-        p = positions[t]
-        in_range = np.flatnonzero(lat.in_range[:, p])
-        u = int(in_range[np.argmax(aoi[in_range])]) if len(in_range) else -1
-        aoi, _ = advance(aoi, aoi, u, 1)  # ages only
-        idx.append(p)
-        sched.append(u)
-    plan = Plan.from_indices(instance, idx, sched)
+        info["heads_home_from_slot"] = next(t for t in range(T) if positions[t] != cycle[t % len(cycle)])
+    plan = Plan.from_indices(instance, positions, _largest_aoi_uploads(instance, lat, positions))
     if stop.requested:
         info["stopped"] = stop.describe()
     return Result.from_plan(
