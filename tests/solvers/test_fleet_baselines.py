@@ -285,3 +285,17 @@ def test_a_stopped_walk_at_a_long_horizon_stops_within_the_limit(end):
     assert r.status == "time_limit" and r.runtime_s <= 0.2 * 1.1 + 1
     d = inst.to_dict()
     assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_robot_without_an_end_does_not_park_on_another_robots_end_once_stopped(method):
+    """Once stopped, robots head for their ends. A change to prefer staying on ties parked a
+    robot without an end on another robot's end for good: the walk then backtracked past its
+    budget, and the stopped run ended with status error and no plan (a review, 2026-12-02)."""
+    d = {"name": "f11", "area": {"width": 3, "height": 3}, "horizon": 6,
+         "robots": [{"start": [3, 3]}, {"start": [2, 0]}, {"start": [3, 2], "end": [2, 3], "max_moves": 3},
+                    {"start": [1, 0]}, {"start": [3, 0], "end": [3, 3]}],
+         "sensors": [{"position": [2.497334008448843, 0.4843981796426374], "rho": 0.5}]}
+    r = voiopt.solve(from_dict(d), method, time_limit=1e-9)
+    assert r.status == "time_limit" and r.plan is not None, r.solver
+    assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)

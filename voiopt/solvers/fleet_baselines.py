@@ -110,7 +110,7 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
     def open_frame(t, cur, used, state):
         if stop.check():
             uploads, after = (-1,) * K, state
-            order = _homeward(lats, cur)
+            order = _homeward(lats)
         else:
             uploads, after = begin(t, cur, state)
             order = prefer(t, cur, after)
@@ -148,10 +148,12 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
     return idx, sched
 
 
-def _homeward(lats, cur):
-    """Preference once stopped: fewest moves to end first, staying on ties."""
+def _homeward(lats):
+    """Preference once stopped: fewest moves to end first (a robot with an end never ties a
+    move with staying; one without goes on moving, which frees another robot's end: preferring
+    to stay there left stopped walks with no plan, a review found)."""
     def order(k, ok):
-        return sorted(ok, key=lambda q: (lats[k].to_end[q], q != cur[k], q))
+        return sorted(ok, key=lambda q: (lats[k].to_end[q], q))
     return order
 
 
