@@ -162,6 +162,7 @@ def test_a_limit_stops_the_build_of_the_voi_table_and_its_blocks_change_no_bit(m
     assert np.array_equal(mdp.build(inst).voi_reward, whole)
     r = ql.solve(inst, time_limit=1e-9, episodes=10)
     assert r.status == "time_limit" and "MDP's tables" in r.solver["note"]
+    assert r.solver["reward_units"] == "bit/s" and r.solver["episodes_run"] == 0  # every result records them
     assert all(u is None for u in r.plan.schedule) and r.metrics == voiopt.evaluate(inst, r.plan)
     assert r.plan.positions[-1] == inst.end
 

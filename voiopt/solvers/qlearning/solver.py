@@ -116,18 +116,22 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         base.require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
         build, slots, train_fn, rollout_fn = mdp_mod.build, 1 << 15, train, rollout
     startup_s = warm_up(bool(instance.fleet))
+    settings = {"reward": reward, "reward_units": reward_units, "episodes": episodes, "seed": seed, "beta": beta,
+                "gamma": gamma, "epsilon0": 1.0 / episodes, "q_init": q_init, "penalty": penalty,
+                "slot_in_state": slot_in_state, "memory_limit_gb": memory_limit, "startup_s": startup_s}
     with watch(time_limit, memory_limit) as stop:
         try:
             model = build(instance, reward, penalty, slot_in_state, reward_units, stop=stop)
         except joint.NoJointPlan as e:  # proven: no legal plan to learn
             return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
-                                    solver={"note": str(e), "startup_s": startup_s})
+                                    solver={**settings, "episodes_run": 0, "note": str(e)})
         except Stopped:  # nothing learnt: the plan of a stopped heuristic (no uploads, robots heading home)
             plan, status, note = _stopped_plan(instance, objective, memory_limit)
             return Result.from_plan(instance, method, objective, plan, status=status or stop.reason,
                                     runtime_s=stop.elapsed(),
-                                    solver={"note": f"stopped while building the MDP's tables; {note}",
-                                            "stopped": stop.describe(), "startup_s": startup_s})
+                                    solver={**settings, "episodes_run": 0,
+                                            "note": f"stopped while building the MDP's tables; {note}",
+                                            "stopped": stop.describe()})
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
         eps = np.array([1.0])
         eps0 = 1.0 / episodes
@@ -158,13 +162,8 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
                     break
         table.drop_next()  # a table allocated ahead of a growth that did not come
         idx, sched = rollout_fn(model, table)
-    solver = {
-        "reward": reward, "reward_units": reward_units, "episodes": episodes, "episodes_run": done, "seed": seed,
-        "beta": beta, "gamma": gamma, "epsilon0": eps0, "q_init": q_init, "penalty": penalty,
-        "slot_in_state": slot_in_state, "memory_limit_gb": memory_limit,
-        "table_states": table.n_states, "table_mib": round(table.nbytes / 2**20, 3),
-        "startup_s": startup_s,
-    }
+    solver = {**settings, "episodes_run": done, "table_states": table.n_states,
+              "table_mib": round(table.nbytes / 2**20, 3)}
     if instance.fleet:
         solver.update(robots=instance.n_robots, joint_actions_max=model.max_actions)
     if stop.reason and done < episodes:
