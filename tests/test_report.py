@@ -167,6 +167,18 @@ def test_missing_instances_exit_2(capsys, tmp_path):
     assert code == 2 and "no such file or folder" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("content", ["[1, 2]", '"x"', '{"seed": 1, "seed": 1}', "{"])
+def test_a_run_json_that_is_not_a_runs_settings_is_refused_in_one_line(tmp_path, nets, capsys, content):
+    """A run.json that is valid JSON but not an object gave an AttributeError traceback; an
+    unreadable one was reported as other settings ('a differs'). Both now say what it is (a
+    review, 2026-12-02)."""
+    (tmp_path / "run.json").write_text(content)
+    code = main(["gap-report", str(nets), "-o", str(tmp_path), "--quiet", "--methods", "greedy"])
+    err = capsys.readouterr().err
+    assert code == 2 and "holds a run.json that is not a voiopt run's settings" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+
+
 def test_resume_refuses_a_folder_made_with_other_settings(tmp_path, nets, capsys):
     report.gap_report([nets], ["greedy"], "mean-min-voi", tmp_path, seed=1)
     with pytest.raises(voiopt.OptionError, match=r"holds a run with other settings \(seed differs\)"):

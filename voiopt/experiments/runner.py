@@ -393,8 +393,11 @@ def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--ou
             old = loads_json(path.read_text(encoding="utf-8"))
         except (OSError, ValueError, VoioptError):
             old = None
+        if not isinstance(old, dict):
+            raise OptionError(f"{what}: {out_dir} holds a run.json that is not a voiopt run's settings; "
+                              "use another folder, or delete it to start again")
         if old != settings:
-            diff = sorted(k for k in set(settings) | set(old or {}) if (old or {}).get(k) != settings.get(k))
+            diff = sorted(k for k in set(settings) | set(old) if old.get(k) != settings.get(k))
             raise OptionError(
                 f"{what}: {out_dir} holds a run with other settings ({', '.join(diff)} "
                 f"{'differs' if len(diff) == 1 else 'differ'}); "

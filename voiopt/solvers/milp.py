@@ -104,7 +104,7 @@ def solve(
     if status == TIME_LIMIT and not stop.requested:  # HiGHS's own clock ran out first
         stop.request(TIME_LIMIT)
     if stop.requested:  # a proof completed as the stop came is kept: the result is whole (exit status 0)
-        run.details["stopped"] = stop.describe() + ("; HiGHS had proven the optimum by then" if status == "optimal" else "")
+        run.details["stopped"] = stop.describe() + ("; the optimum was proven by then" if status == "optimal" else "")
     return Result.from_plan(
         instance, METHOD, objective, run.incumbent.plan, status=status, bound=bound,
         runtime_s=stop.elapsed(), solver=run.details,
