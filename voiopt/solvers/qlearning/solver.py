@@ -134,7 +134,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
                                             "stopped": stop.describe()})
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
         eps = np.array([1.0])
-        eps0 = 1.0 / episodes
+        eps0 = settings["epsilon0"]
         rng = np.array([seed_state(seed)], dtype=np.uint64)
         T = instance.horizon
         done, chunk = 0, max(FIRST_STEPS // T, 1)  # in episodes; one episode at T = 10^6 is about 0.1 s
