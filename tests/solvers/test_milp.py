@@ -8,6 +8,7 @@ import signal
 import threading
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import tiny_instances
 from oracles.bruteforce import brute_force
@@ -141,3 +142,28 @@ def test_worths_spanning_many_orders_of_magnitude_get_a_true_bound_and_no_false_
         if r.status == "optimal":
             assert r.value == pytest.approx(best, rel=1e-6), inst.name
         assert r.status in ("optimal", "feasible"), inst.name
+
+
+@pytest.mark.parametrize("objective", ["mean-min-voi", "min-voi"])
+def test_a_limit_stops_the_build_of_the_model_and_its_blocks_change_no_bit(monkeypatch, objective):
+    """The uploads' worths and rows grow as T^2: at T = 2151 building the MILP took 40 s past a
+    1.5 s limit, and at T = 2680 it asked numpy for 80 GiB at once (a fuzz campaign). Both are
+    now built a block at a time with the stop rule checked between blocks; stopped there, the
+    plan is the warm start's, with no bound. The blocks change no bit."""
+    from voiopt.models import uploads
+    from voiopt.models.milp import model as model_arrays
+
+    inst = voiopt.generate(3, 40, seed=6, end="random")
+    whole = uploads.structure(inst, "voi")
+    built = voiopt.models.milp.build(inst, "mean-min-voi")
+    uploads._CACHE.clear()
+    monkeypatch.setattr(uploads, "VOI_BLOCK", 5)
+    monkeypatch.setattr(model_arrays, "PAIR_BLOCK", 7)
+    again = uploads.structure(inst, "voi")
+    assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(whole.level_worth, again.level_worth, strict=True))
+    rebuilt = voiopt.models.milp.build(inst, "mean-min-voi")
+    assert (rebuilt.matrix != built.matrix).nnz == 0 and np.array_equal(rebuilt.row_upper, built.row_upper)
+    uploads._CACHE.clear()
+    r = solve(inst, objective, time_limit=1e-9)
+    assert r.status == "time_limit" and r.bound is None and "stopped while" in r.solver["note"]
+    assert r.metrics == voiopt.evaluate(inst, r.plan)

@@ -233,7 +233,7 @@ def _voi_table(instance: Instance, max_age: int, dist: np.ndarray, stop=None) ->
     out = np.empty((N, max_age + 1, dist.shape[1]))
     step = max(1, VOI_BLOCK // max(1, out[:, 0].size))
     for a in range(0, max_age + 1, step):
-        if stop is not None and stop.check() is not None:
+        if a and stop is not None and stop.check() is not None:
             raise Stopped(stop.reason)
         ages = np.arange(a, min(a + step, max_age + 1), dtype=float)
         out[:, a:a + len(ages)] = physics.voi(ages[None, :, None], dist[:, None, :], rho, power, instance.channel)

@@ -10,14 +10,15 @@ Used by the MILP and by the Pyomo model.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import physics
 from voiopt.instance import Instance
+from voiopt.stop import Stopped
 
 # Uploads whose log-scores differ by less than this (relative) are one level (e.g. the four
 # lattice points symmetric about a sensor, whose distances differ only by rounding).
@@ -81,8 +82,38 @@ class Structure:
         return np.unique(np.concatenate(parts))
 
 
-@lru_cache(maxsize=16)
-def structure(instance: Instance, kind: str) -> Structure:
+_CACHE: OrderedDict = OrderedDict()  # (instance, kind) -> Structure, the 16 most recent
+VOI_BLOCK = 1 << 18  # worths computed between two checks of the stop rule (about 0.1 s)
+
+
+def structure(instance: Instance, kind: str, stop=None) -> Structure:
+    """The uploads and worth levels of ``instance`` (kept for the 16 most recent). Its worths
+    grow as T^2 (a few hundred ns each: 40 s at T = 2151 with 9 sensors), so ``stop``
+    (voiopt.stop.Stop) is checked every VOI_BLOCK of them: voiopt.stop.Stopped."""
+    key = (instance, kind)
+    if key in _CACHE:
+        _CACHE.move_to_end(key)
+        return _CACHE[key]
+    st = _structure(instance, kind, stop)
+    _CACHE[key] = st
+    if len(_CACHE) > 16:
+        _CACHE.popitem(last=False)
+    return st
+
+
+def _voi_columns(ages: np.ndarray, distance: np.ndarray, rho: float, power: float, ch, stop) -> np.ndarray:
+    """physics.voi of ages (rows) x levels (columns), a block of columns at a time (the same
+    bits: each entry is on its own), checking ``stop`` between blocks."""
+    out = np.empty((ages.shape[0], ages.shape[1]))
+    step = max(1, VOI_BLOCK // max(1, ages.shape[0]))
+    for c in range(0, ages.shape[1], step):
+        if c and stop is not None and stop.check() is not None:
+            raise Stopped(stop.reason)
+        out[:, c:c + step] = physics.voi(ages[:, c:c + step], distance[:, c:c + step], rho, power, ch)
+    return out
+
+
+def _structure(instance: Instance, kind: str, stop) -> Structure:
     lat = lattice_mod.build(instance)
     T, N, n = instance.horizon, instance.n_sensors, lat.n_points
     ch = instance.channel
@@ -132,8 +163,7 @@ def structure(instance: Instance, kind: str) -> Structure:
         first = np.minimum.accumulate(min_slot[::-1])[::-1]  # earliest slot reaching level >= l
         if kind == "voi":
             ages = t_all[:, None] - s_idx[rep][None, :]
-            w = physics.voi(ages, lat.distance[i, p_idx[rep]][None, :], rho[i], power[i], ch)
-            w = np.asarray(w, dtype=float).reshape(T + 1, K)
+            w = _voi_columns(ages, lat.distance[i, p_idx[rep]][None, :], rho[i], power[i], ch, stop)
         else:
             w = -(t_all[:, None] - s_idx[rep][None, :]).astype(float)
         w = np.where(t_all[:, None] > first[None, :], w, np.nan)

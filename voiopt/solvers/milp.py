@@ -46,7 +46,7 @@ from voiopt.solvers.base import (
     points_in_range,
     require_memory,
 )
-from voiopt.stop import TIME_LIMIT, Stop, watch
+from voiopt.stop import TIME_LIMIT, Stop, Stopped, watch
 
 METHOD = "milp"
 PATCH_RTOL = 5e-7  # an "optimal" must be met to this relative gap (half of Result's 1e-6)
@@ -318,7 +318,12 @@ class _Run:
         import highspy
 
         t = time.perf_counter()
-        st = model_mod.structure(self.instance, self.kind)
+        try:
+            st = model_mod.structure(self.instance, self.kind, self.stop)
+        except Stopped:  # the best plan so far (the warm start), no bound
+            self.details["build_s"] += time.perf_counter() - t
+            self.details["note"] = "stopped while the uploads' worths were computed (T^2 of them); the plan is the warm start's"
+            return self.stop.reason, None
         cand = st.candidates()
         top = int(np.searchsorted(cand, st.best_worth()[1:].min(), side="right")) - 1
         lo = self._feasible_index(cand, self.worth(self.incumbent.value))
@@ -377,7 +382,12 @@ class _Run:
         t = time.perf_counter()
         warm_worth = self.worth(self.incumbent.value)
         scale = warm_worth if self.kind == "voi" and warm_worth > 0 else None
-        model = model_mod.build(self.instance, self.objective, scale=scale)
+        try:
+            model = model_mod.build(self.instance, self.objective, scale=scale, stop=self.stop)
+        except Stopped:  # the best plan so far (the warm start), no bound
+            self.details["build_s"] += time.perf_counter() - t
+            self.details["note"] = "stopped while the MILP was built (it grows as T^2); the plan is the warm start's"
+            return self.stop.reason, None
         self.details["scale"] = model.scale
         self.details["build_s"] += time.perf_counter() - t
         h = self.highs(model)

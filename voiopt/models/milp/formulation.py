@@ -176,12 +176,13 @@ def level_terms(st: Structure, per_slot: bool) -> LevelTerms:
 SCALE_RANGE = 1e4
 
 
-def build(instance: Instance, objective: str, *, scale: float | None = None) -> Model:
+def build(instance: Instance, objective: str, *, scale: float | None = None, stop=None) -> Model:
     """The full MILP for ``objective``: per-slot z for the mean objectives, one z for the
     min/max objectives. Maximises (1/T) sum z_t, or z, in worth units of ``scale`` (raised to
-    the largest z cap / SCALE_RANGE if below it)."""
+    the largest z cap / SCALE_RANGE if below it). voiopt.stop.Stopped if ``stop`` says stop
+    while its largest parts (the worths of the uploads, the rows of the uploads) are built."""
     kind = objectives.get(objective).worth
-    st = structure(instance, kind)
+    st = structure(instance, kind, stop)
     T = st.horizon
     per_slot = objectives.get(objective).per_slot
     scale = float(scale) if scale is not None else default_scale(st, objective)
@@ -203,7 +204,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     # previous slot with an H of the same (i, l), or 0 (and no H term) for the first
     e = np.arange(len(h_i))
     has_prev = lt.previous >= 0
-    eu, uu = lt.uploads(st)
+    eu, uu = lt.uploads(st, stop)
     tr.add(
         np.concatenate([e, e[has_prev], eu]),
         np.concatenate([h_col, h_col[lt.previous[has_prev]], st.up_col[uu]]),
