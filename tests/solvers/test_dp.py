@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 
+import numpy as np
 import pytest
 from conftest import tiny_instances
 from oracles.bruteforce import brute_force
@@ -205,3 +206,20 @@ def test_the_incumbents_beam_widens_with_the_cheap_bound_while_the_time_left_all
     assert run(FakeStop(100.0)) == [(16, "solve's"), (32, False), (64, False)]
     assert run(FakeStop(1.0), seconds=0.05) == [(16, "solve's")]  # 2.5 x 0.05 s > 10 % of 1 s
     assert run(FakeStop(100.0, reason="interrupted")) == [(16, "solve's")]
+
+
+def test_a_limit_stops_the_build_of_the_value_table_and_its_blocks_change_no_bit(monkeypatch):
+    """W's worths grow as T^2 (libm per entry): at T = 1108 building them took 6 s past a 1.8 s
+    limit, in dp and in beam (a fuzz campaign). They are now computed a block at a time, the
+    stop rule checked between blocks; stopped there, the robot heads for its end (or stays)
+    without uploads. The blocks change no bit of W."""
+    from voiopt.solvers import _dp_shared, beam
+
+    inst = voiopt.generate(3, 40, seed=6, end="random")
+    whole = _dp_shared.build_tables(inst, "mean-min-voi").W
+    monkeypatch.setattr(_dp_shared, "VOI_BLOCK", 5)
+    assert np.array_equal(_dp_shared.build_tables(inst, "mean-min-voi").W, whole)
+    for solve in (dp.solve, beam.solve):
+        r = solve(inst, "mean-min-voi", time_limit=1e-9)
+        assert r.status == "time_limit" and all(u is None for u in r.plan.schedule)
+        assert r.plan.positions[-1] == inst.end and r.metrics == voiopt.evaluate(inst, r.plan)

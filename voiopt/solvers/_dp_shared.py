@@ -16,7 +16,7 @@ from voiopt import objectives, physics
 from voiopt.errors import VoioptError
 from voiopt.instance import Instance
 from voiopt.solvers.base import lattice_bytes, points_in_range
-from voiopt.stop import Stop
+from voiopt.stop import Stop, Stopped
 
 CHUNK_WORK = 100_000  # (label, upload) pairs per kernel call: the granularity of time checks
 PAIR_TABLE_BYTES = 400e6  # the pairwise bound is skipped where its table would be larger
@@ -85,8 +85,14 @@ def table_bytes(instance: Instance) -> float:
             + 2.0 * N * n * T * (T + 1) + 8.0 * N * P * n)
 
 
-def build_tables(instance: Instance, objective: str) -> Tables:
-    """Candidate uploads per sensor, their ranks by score, and the value table W."""
+VOI_BLOCK = 1 << 18  # worths of W computed between two checks of the stop rule (about 0.1 s)
+
+
+def build_tables(instance: Instance, objective: str, stop: Stop | None = None) -> Tables:
+    """Candidate uploads per sensor, their ranks by score, and the value table W. W's worths
+    grow as T^2 (libm per entry: 12M of them, 6 s, at T = 1108 with 3 sensors), so ``stop`` is
+    checked after every VOI_BLOCK of them (never for a smaller table): voiopt.stop.Stopped (the
+    blocks change no bit)."""
     from voiopt.solvers import _dp_core as core
 
     lat = lattice_mod.build(instance)
@@ -115,6 +121,7 @@ def build_tables(instance: Instance, objective: str) -> Tables:
     initial_rank = np.empty(N, dtype=np.int16)
     up_rank = np.full((T, n, N), -1, dtype=np.int16)
     t_grid = np.arange(T + 1)
+    computed = 0  # worths since the last check of the stop rule
     for i, sensor in enumerate(instance.sensors):
         rank_of = {c: r for r, c in enumerate(cand_lists[i])}
         s0, d0 = -sensor.initial_aoi, (0.0 if aoi else instance.initial_distance(i))
@@ -126,7 +133,16 @@ def build_tables(instance: Instance, objective: str) -> Tables:
         if aoi:
             values = -age
         else:
-            values = physics.voi(np.maximum(age, 1), dists, sensor.rho, sensor.power_w, instance.channel)
+            values = np.empty(age.shape)
+            rows = max(1, VOI_BLOCK // age.shape[1])
+            for r in range(0, len(slots), rows):
+                values[r:r + rows] = physics.voi(np.maximum(age[r:r + rows], 1), dists[r:r + rows], sensor.rho,
+                                                 sensor.power_w, instance.channel)
+                computed += values[r:r + rows].size
+                if computed >= VOI_BLOCK and stop is not None:  # a small table is built in full
+                    computed = 0
+                    if stop.check() is not None:
+                        raise Stopped(stop.reason)
         W[i, : len(slots)] = np.where(later, values, np.inf)
         for p in np.flatnonzero(lat.in_range[i]):
             d = 0.0 if aoi else float(lat.distance[i, p])

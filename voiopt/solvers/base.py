@@ -109,3 +109,11 @@ def warm_up_once(family: str, load: Callable[[], object]) -> float:
         _numba_start.start()
         load()
     return time.perf_counter() - t0
+
+
+def idle_plan(instance: Instance) -> Plan:
+    """The plan of a solver stopped before it has one: no uploads, the fewest moves to end (or
+    staying where there is none). It keeps every rule of MODEL.md section 9."""
+    lat = lattice_mod.build(instance)
+    T = instance.horizon
+    return Plan.from_indices(instance, [lat.start, *lat.walk_home(lat.start, T - 1)], np.full(T, -1))

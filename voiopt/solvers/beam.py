@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from voiopt import lattice
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.objectives import check_objective
@@ -21,8 +20,8 @@ from voiopt.progress import progress_bar
 from voiopt.result import Result
 from voiopt.simulate import simulate
 from voiopt.solvers import dp
-from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, require_memory
-from voiopt.stop import watch
+from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, idle_plan, require_memory
+from voiopt.stop import Stopped, watch
 
 WIDTHS = (2, 4, 8, 16, 32, 64)
 
@@ -38,7 +37,10 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     startup_s = dp.warm_up()
     widths = [w for w in WIDTHS if w < max_width] + [max_width]
     with watch(time_limit, memory_limit) as stop:
-        tab = dp.build_tables(instance, objective)
+        try:
+            tab = dp.build_tables(instance, objective, stop)
+        except Stopped:  # no pass: the plan below
+            tab, widths = None, []
         best_plan, best_internal, passes = None, -np.inf, []
         with progress_bar(progress) as bar:
             task = bar.add_task("beam widths", total=len(widths))
@@ -54,10 +56,8 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
                 bar.update(task, advance=1, description=f"beam width {w}")
                 if stop.check() is not None:
                     break
-        if best_plan is None:  # stopped before any pass finished: no uploads, the way home
-            lat = lattice.build(instance)
-            best_plan = Plan.from_indices(instance, [lat.start, *lat.walk_home(lat.start, instance.horizon - 1)],
-                                          [-1] * instance.horizon)
+        if best_plan is None:  # stopped before any pass finished
+            best_plan = idle_plan(instance)
     solver = {"passes": passes, "max_width": max_width, "startup_s": startup_s}
     if stop.reason:
         solver["stopped"] = stop.describe()

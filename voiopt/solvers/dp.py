@@ -14,7 +14,6 @@ from functools import partial
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
 from voiopt import objectives
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
@@ -35,10 +34,11 @@ from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     check_limits,
     check_threads,
+    idle_plan,
     require_memory,
     warm_up_once,
 )
-from voiopt.stop import TIME_LIMIT, Stop, watch
+from voiopt.stop import TIME_LIMIT, Stop, Stopped, watch
 
 __all__ = ["CHUNK_WORK", "PAIR_TABLE_BYTES", "Tables", "build_tables", "table_bytes", "search", "solve", "warm_up"]
 
@@ -127,7 +127,12 @@ def solve(
 def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, warm_start, beam, greedy,
            collapse, bounding, tdma, pair_bound, tour_bound, subsets, patterns, fast_budget, quick_beam,
            progress, threads, known: _dp_subsets.Known | None = None) -> Result:
-    tab = build_tables(instance, objective)
+    try:  # a subset's solve (known) must return a bound: its tables are built in full
+        tab = build_tables(instance, objective, stop if known is None else None)
+    except Stopped:  # stopped before any plan
+        return Result.from_plan(instance, "dp", objective, idle_plan(instance), status=stop.reason, runtime_s=stop.elapsed(),
+                                solver={"note": "stopped while the value table was built (it grows as T^2)",
+                                        "stopped": stop.describe(), "startup_s": startup_s})
     if tour_bound and tdma and objectives.get(objective).per_slot:  # the bottleneck ones: slower, no tighter (docs/dp.md)
         tab.with_tour_bound()
 
@@ -205,10 +210,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
             best_plan, best_value = plan, found
         else:  # the incumbent matches to rounding: keep it, count the DP value in the bound
             best_value = max(best_value, out.value)
-    if best_plan is None:  # stopped before any plan: no uploads, the fewest moves to end (or staying)
-        T = instance.horizon
-        lat = lattice_mod.build(instance)
-        offer(Plan.from_indices(instance, [tab.start, *lat.walk_home(tab.start, T - 1)], np.full(T, -1)), "idle")
+    if best_plan is None:  # stopped before any plan
+        offer(idle_plan(instance), "idle")
     if out.complete:
         bound_internal, status = max(best_value, out.value), "optimal"
     elif _dp_subsets.reaches(best_value, relaxed):  # a plan as good as a subset's bound

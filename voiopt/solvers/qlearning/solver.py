@@ -180,10 +180,7 @@ def _stopped_plan(instance: Instance, objective: str, memory_limit: float) -> tu
     idle plan; a fleet takes greedy's plan, stopped at once (its walker keeps the rules between
     robots), or greedy's status and why where it has none."""
     if not instance.fleet:
-        lat = lattice_mod.build(instance)
-        T = instance.horizon
-        return (Plan.from_indices(instance, [lat.start, *lat.walk_home(lat.start, T - 1)], np.full(T, -1)), None,
-                "the plan heads for the end (or stays) without uploads")
+        return base.idle_plan(instance), None, "the plan heads for the end (or stays) without uploads"
     from voiopt.solvers.baselines import greedy
 
     walked = greedy(instance, objective, time_limit=1e-9, memory_limit=memory_limit)
