@@ -321,3 +321,28 @@ def test_a_ctrl_c_while_the_temporary_file_is_made_leaves_no_file(tmp_path, monk
     with pytest.raises(KeyboardInterrupt):
         _files.write_json_atomic(tmp_path / "r.json", {"a": 1})
     assert list(tmp_path.iterdir()) == []
+
+
+WRITE_KILLED = """
+import os, signal, sys
+from voiopt._files import write_json_atomic
+from voiopt.stop import Interrupted
+class Term(dict):  # a result whose writing receives SIGTERM half way
+    def items(self):
+        os.kill(os.getpid(), signal.SIGTERM)
+        return super().items()
+try:
+    write_json_atomic(sys.argv[1] + "/r.json", {"a": 1, "b": Term(c=2)})
+except Interrupted as e:
+    print("interrupted", e.exit_code, os.listdir(sys.argv[1]), signal.getsignal(signal.SIGTERM) == signal.SIG_DFL)
+"""
+
+
+def test_a_sigterm_while_a_file_is_written_leaves_no_temporary_file(tmp_path):
+    """A SIGTERM whose action is the default one (after a solve's stop rule is gone, as a
+    second signal during the write of a result) killed the process mid-write and left the
+    temporary .tmp file beside the result (a fuzz campaign). While a file is written it now
+    raises Interrupted: the temporary file is removed, and the command ends with status 143."""
+    proc = subprocess.run([sys.executable, "-c", WRITE_KILLED, str(tmp_path)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.returncode
+    assert proc.stdout.split() == ["interrupted", "143", "[]", "True"], proc.stderr

@@ -8,8 +8,10 @@ import json
 import os
 import re
 import secrets
+import signal
 import sys
 import tempfile
+import threading
 from collections.abc import Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -19,6 +21,7 @@ import numpy as np
 
 from voiopt._checker import show
 from voiopt.errors import InstanceError, OptionError
+from voiopt.stop import Interrupted
 
 # Limits of every JSON file voiopt reads. A plan at the horizon cap (10**6 slots) has about
 # 10**6 lists and 3 * 10**6 commas and, pretty-printed inside a result, about 60 MB; the
@@ -168,25 +171,46 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = None
+    with _sigterm_raises():
+        try:
+            while True:
+                tmp = p.parent / f".{p.name}.{secrets.token_hex(4)}.tmp"
+                try:
+                    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+                    break
+                except FileExistsError:
+                    continue
+            if binary:
+                f = os.fdopen(fd, "wb")
+            else:
+                f = os.fdopen(fd, "w", encoding="utf-8", newline=newline)
+            with f:
+                yield f
+            os.replace(tmp, p)
+        except BaseException:
+            if tmp is not None:
+                tmp.unlink(missing_ok=True)
+            raise
+
+
+@contextmanager
+def _sigterm_raises():
+    """While a file is written: a SIGTERM that would kill the process outright (its default
+    action, as after a solve's stop rule is gone) raises voiopt.stop.Interrupted instead, so
+    that the temporary file is removed and the command ends with status 143 (a fuzz campaign
+    found .tmp files left by a second signal during the write of a result)."""
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise Interrupted(signum)
+
+    signal.signal(signal.SIGTERM, interrupt)
     try:
-        while True:
-            tmp = p.parent / f".{p.name}.{secrets.token_hex(4)}.tmp"
-            try:
-                fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-                break
-            except FileExistsError:
-                continue
-        if binary:
-            f = os.fdopen(fd, "wb")
-        else:
-            f = os.fdopen(fd, "w", encoding="utf-8", newline=newline)
-        with f:
-            yield f
-        os.replace(tmp, p)
-    except BaseException:
-        if tmp is not None:
-            tmp.unlink(missing_ok=True)
-        raise
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:
