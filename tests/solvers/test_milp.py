@@ -167,3 +167,23 @@ def test_a_limit_stops_the_build_of_the_model_and_its_blocks_change_no_bit(monke
     r = solve(inst, objective, time_limit=1e-9)
     assert r.status == "time_limit" and r.bound is None and "stopped while" in r.solver["note"]
     assert r.metrics == voiopt.evaluate(inst, r.plan)
+
+
+def test_a_limit_stops_the_level_terms_of_a_long_horizon(monkeypatch):
+    """level_terms costs numpy calls per slot (3 s at T = 2243 with 4 sensors, past a 2.44 s
+    limit, found by a fuzz campaign): the stop rule is checked every STOP_SLOTS slots, and the
+    checks change nothing when no stop comes."""
+    from voiopt.models import uploads
+    from voiopt.models.milp import formulation
+    from voiopt.stop import Stop, Stopped
+
+    inst = voiopt.generate(3, 40, seed=6, end="random")
+    st = uploads.structure(inst, "aoi")
+    whole = formulation.level_terms(st, True)
+    monkeypatch.setattr(formulation, "STOP_SLOTS", 1)
+    checked = formulation.level_terms(st, True, Stop())
+    assert all(np.array_equal(getattr(whole, f), getattr(checked, f)) for f in ("sensor", "slot", "level", "increment"))
+    stopped = Stop()
+    stopped.request()
+    with pytest.raises(Stopped):
+        formulation.level_terms(st, True, stopped)
