@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from voiopt.instance import Channel
+from voiopt.stop import Stopped
 
 LN2 = math.log(2.0)
 
@@ -70,6 +71,26 @@ def voi(aoi, distance, rho, power_w, channel: Channel):
                        - _libm(_log, np.broadcast_to(bn + pg * one_minus_rho_a, x.shape)[large]))
     out = channel.bandwidth_hz * nats / LN2
     return out if out.ndim else float(out)
+
+
+def voi_blocks(aoi, distance, rho, power_w, channel: Channel, *, axis: int, block: int, stop=None) -> np.ndarray:
+    """``voi`` of arguments that broadcast to one shape, computed a few slices along ``axis`` at
+    a time (about ``block`` entries each), ``stop`` (voiopt.stop.Stop) checked between blocks:
+    voiopt.stop.Stopped. An entry depends on its own arguments alone, so the blocks change no
+    bit; only the arguments that vary along ``axis`` are sliced, the others are passed whole
+    (each is then taken through libm once, not once per entry). Every argument has the result's
+    number of axes, or none. For the tables that grow as T^2 (MDP, MILP)."""
+    args = [np.asarray(a, dtype=float) for a in (aoi, distance, rho, power_w)]
+    shape = np.broadcast_shapes(*(a.shape for a in args))
+    out = np.empty(shape)
+    step = max(1, block // max(1, out.size // max(1, shape[axis])))
+    for lo in range(0, shape[axis], step):
+        if lo and stop is not None and stop.check() is not None:
+            raise Stopped(stop.reason)
+        cut = (slice(None),) * axis + (slice(lo, lo + step),)
+        part = [a[cut] if a.ndim and a.shape[axis] > 1 else a for a in args]
+        out[cut] = voi(*part, channel)
+    return out
 
 
 def voi_of_x(x, bandwidth_hz: float):

@@ -18,7 +18,6 @@ import numpy as np
 from voiopt import lattice as lattice_mod
 from voiopt import physics
 from voiopt.instance import Instance
-from voiopt.stop import Stopped
 
 # Uploads whose log-scores differ by less than this (relative) are one level (e.g. the four
 # lattice points symmetric about a sensor, whose distances differ only by rounding).
@@ -101,18 +100,6 @@ def structure(instance: Instance, kind: str, stop=None) -> Structure:
     return st
 
 
-def _voi_columns(ages: np.ndarray, distance: np.ndarray, rho: float, power: float, ch, stop) -> np.ndarray:
-    """physics.voi of ages (rows) x levels (columns), a block of columns at a time (the same
-    bits: each entry is on its own), checking ``stop`` between blocks."""
-    out = np.empty((ages.shape[0], ages.shape[1]))
-    step = max(1, VOI_BLOCK // max(1, ages.shape[0]))
-    for c in range(0, ages.shape[1], step):
-        if c and stop is not None and stop.check() is not None:
-            raise Stopped(stop.reason)
-        out[:, c:c + step] = physics.voi(ages[:, c:c + step], distance[:, c:c + step], rho, power, ch)
-    return out
-
-
 def _structure(instance: Instance, kind: str, stop) -> Structure:
     lat = lattice_mod.build(instance)
     T, N, n = instance.horizon, instance.n_sensors, lat.n_points
@@ -163,7 +150,8 @@ def _structure(instance: Instance, kind: str, stop) -> Structure:
         first = np.minimum.accumulate(min_slot[::-1])[::-1]  # earliest slot reaching level >= l
         if kind == "voi":
             ages = t_all[:, None] - s_idx[rep][None, :]
-            w = _voi_columns(ages, lat.distance[i, p_idx[rep]][None, :], rho[i], power[i], ch, stop)
+            w = physics.voi_blocks(ages, lat.distance[i, p_idx[rep]][None, :], rho[i], power[i], ch, axis=1,
+                                   block=VOI_BLOCK, stop=stop)
         else:
             w = -(t_all[:, None] - s_idx[rep][None, :]).astype(float)
         w = np.where(t_all[:, None] > first[None, :], w, np.nan)
