@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import time
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -30,6 +31,7 @@ from voiopt.stop import Stop
 MAX_JOINT_UPLOADS = 4096  # joint upload choices scored exhaustively per slot; above, robot by robot
 MAX_TRIES = 20_000  # joint moves the walker may try beyond one per slot before it gives up (about 15 s for greedy)
 MAX_TRIES_STOPPED = 500  # and once the stop rule has fired (then robots only head home)
+GRACE_S = 0.5  # nor may a stopped walk run on for longer: a doomed one wastes no tries, one slot at a time, to T
 MAX_NODES = 20_000  # partial joint moves one slot's enumeration may visit (on a packed lattice it is exponential)
 
 
@@ -105,7 +107,7 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
     K, T = instance.n_robots, instance.horizon
     cur0 = tuple(lat.start for lat in lats)
     frames = []  # per slot t: (cur, used, uploads, state after uploads, options)
-    tries, stopped_at, cuts = 0, None, []
+    tries, stopped_at, stopped_clock, cuts = 0, None, 0.0, []
 
     def open_frame(t, cur, used, state):
         if stop.check():
@@ -134,7 +136,9 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
         tries += 1
         if stop.requested and stopped_at is None:
             stopped_at = tries - t  # a plan needs one joint move per slot: budgets count the tries beyond
-        if tries - t > MAX_TRIES or stopped_at is not None and tries - t - stopped_at > MAX_TRIES_STOPPED:
+            stopped_clock = time.monotonic()
+        if tries - t > MAX_TRIES or stopped_at is not None and (
+                tries - t - stopped_at > MAX_TRIES_STOPPED or time.monotonic() - stopped_clock > GRACE_S):
             raise NoJointPlan(f"the conflict-free walker gave up after {tries - 1} joint moves (slot {t}"
                               f"{', stopped' if stopped_at is not None else ''})", False)
         new_used = tuple(u + (a != b) for u, a, b in zip(used, cur, nxt, strict=True))
@@ -166,23 +170,43 @@ def _result(instance, method, objective, stop, solver, state0, begin, prefer, on
         idx, sched = _walk(instance, stop, state0, begin, prefer, on_move)
     except NoJointPlan as e:
         proof, paths = (e if e.proved else None), None
-        if proof is None:
+        staying = _staying(instance)
+        if proof is None and stop.requested and staying is not None:
+            paths = staying  # stopped: no time for the exact search, and staying put is legal
+        elif proof is None:
             try:
                 paths = _legal_paths(instance, objective, stop)
             except NoJointPlan as none:
                 proof = none
+            paths = staying if paths is None and proof is None else paths
         if proof is not None:
             return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
                                     solver={**solver, "note": str(proof)})
         if paths is None:
             return Result.from_plan(instance, method, objective, None, status="error", runtime_s=stop.elapsed(),
                                     solver={**solver, "note": f"{e}; a legal plan may still exist (milp may find one)"})
-        idx, sched = paths, _uploads_along(paths, state0, begin, on_move)
-        solver["walker"] = f"{e}; uploads chosen along exactly found legal joint paths instead"
+        if stop.requested:  # robots head home without uploads once stopped; here they are home
+            idx, sched = paths, np.full_like(paths, -1)
+        else:
+            idx, sched = paths, _uploads_along(paths, state0, begin, on_move)
+        how = "every robot staying at its start" if paths is staying else "exactly found legal joint paths"
+        solver["walker"] = f"{e}; {'no uploads' if stop.requested else 'uploads chosen'} along {how} instead"
     if stop.requested:
         solver["stopped"] = f"{stop.describe()}; the robots then head for their ends without uploads"
     return Result.from_plan(instance, method, objective, Plan.from_indices(instance, idx, sched),
                             status=stop.reason or "feasible", runtime_s=stop.elapsed(), solver=solver)
+
+
+def _staying(instance: Instance) -> np.ndarray | None:
+    """(K, T) positions of every robot staying at its start, if that is legal: each start is
+    its robot's end, or it has none (staying makes no moves, and starts are distinct). A
+    stopped walk whose robots block each other's way home falls back on it (a fuzz campaign
+    found such walks giving up with no plan on factory floors, where the robots start at the
+    dock)."""
+    lats = _lattices(instance)
+    if any(lat.to_end[lat.start] != 0 for lat in lats):
+        return None
+    return np.repeat(np.array([[lat.start] for lat in lats], dtype=np.int64), instance.horizon, axis=1)
 
 
 def _legal_paths(instance: Instance, objective: str, stop: Stop) -> np.ndarray | None:
