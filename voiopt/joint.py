@@ -11,6 +11,7 @@ plan) and by the fleet's MDP and baselines (models/fleet_mdp.py).
 
 from __future__ import annotations
 
+import collections
 import functools
 import itertools
 from dataclasses import dataclass
@@ -68,29 +69,28 @@ def cells(n_points: int, n_robots: int, horizon: int, radix) -> float:
 
 
 @njit(cache=True)
-def _joint_moves(neighbors, K):
-    """(configs, next config, moved) of every joint move (5**K, robot 0's move most
-    significant) from every joint point (n**K, robot 0's point most significant); next config
-    -1 where a move leaves the area or hits a blocked point, or two robots share or swap points."""
-    n = neighbors.shape[0]
-    C, J = n**K, 5**K
-    configs = np.empty((C, K), np.int64)
+def _digits(C, base, K):
+    """(C, K) the base-``base`` digits of 0..C-1, most significant first: each robot's point of
+    a joint point (base n), or each robot's move of a joint move (base 5)."""
+    out = np.empty((C, K), np.int64)
     for c in range(C):
         x = c
         for k in range(K - 1, -1, -1):
-            configs[c, k] = x % n
-            x //= n
-    digit = np.empty((J, K), np.int64)  # each robot's move in joint move mv
-    for mv in range(J):
-        x = mv
-        for k in range(K - 1, -1, -1):
-            digit[mv, k] = x % 5
-            x //= 5
-    nxt_cfg = np.full((C, J), -1, np.int64)
-    moved = np.empty((C, J, K), np.bool_)
+            out[c, k] = x % base
+            x //= base
+    return out
+
+
+@njit(cache=True)
+def _joint_moves(neighbors, configs, digit, nxt_cfg, moved, c_lo, c_hi):
+    """Fill nxt_cfg[c_lo:c_hi] and moved[c_lo:c_hi]: for every joint move (5**K, robot 0's move
+    most significant) from each joint point (robot 0's point most significant), the next joint
+    point, -1 where a move leaves the area or hits a blocked point, or two robots share or swap
+    points, and whether each robot moves."""
+    n, K = neighbors.shape[0], configs.shape[1]
     nxt = np.empty(K, np.int64)
-    for c in range(C):
-        for mv in range(J):
+    for c in range(c_lo, c_hi):
+        for mv in range(digit.shape[0]):
             ok = True
             for k in range(K):
                 nxt[k] = neighbors[configs[c, k], digit[mv, k]]
@@ -106,7 +106,6 @@ def _joint_moves(neighbors, K):
                 for k in range(K):
                     idx = idx * n + nxt[k]
                 nxt_cfg[c, mv] = idx
-    return configs, nxt_cfg, moved
 
 
 @njit(cache=True, inline="always")
@@ -166,12 +165,31 @@ def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, m
             return
 
 
-@functools.lru_cache(maxsize=2)
-def _moves_of(neighbors: bytes, n: int, K: int):
-    """_joint_moves of a lattice's neighbours (as bytes), kept for the next table on the same
-    lattice: the generator tries many ends on one lattice."""
+_MOVES: collections.OrderedDict = collections.OrderedDict()  # the last two lattices' joint moves
+
+
+def _moves_of(neighbors: bytes, n: int, K: int, stop=None):
+    """(configs, next config, moved) of every joint move from every joint point of a lattice's
+    neighbours (as bytes), kept for the next table on the same lattice (the generator tries
+    many ends on one lattice). Computed CHUNK joint points at a time, checking ``stop``
+    between them (voiopt.stop.Stopped): 1.6 s for four robots, past a 0.5 s limit."""
+    key = (neighbors, n, K)
+    if key in _MOVES:
+        _MOVES.move_to_end(key)
+        return _MOVES[key]
     _numba_start.start()
-    return _joint_moves(np.frombuffer(neighbors, dtype=np.int64).reshape(n, 5), K)
+    nb = np.frombuffer(neighbors, dtype=np.int64).reshape(n, 5)
+    configs, digit = _digits(n**K, n, K), _digits(5**K, 5, K)
+    nxt_cfg = np.full((n**K, 5**K), -1, np.int64)
+    moved = np.empty((n**K, 5**K, K), np.bool_)
+    for lo in range(0, n**K, CHUNK):
+        if stop is not None and stop.check() is not None:
+            raise Stopped(stop.reason)
+        _joint_moves(nb, configs, digit, nxt_cfg, moved, lo, min(n**K, lo + CHUNK))
+    _MOVES[key] = (configs, nxt_cfg, moved)
+    if len(_MOVES) > 2:
+        _MOVES.popitem(last=False)
+    return _MOVES[key]
 
 
 def table(neighbors: np.ndarray, ends, max_moves, horizon: int, stop=None) -> Table:
@@ -179,7 +197,7 @@ def table(neighbors: np.ndarray, ends, max_moves, horizon: int, stop=None) -> Ta
     (point index, or -1 for none) and max_moves (or None); Stopped if ``stop`` says stop first."""
     K, T = len(ends), horizon
     bud, counted, radix = budgets(max_moves, T)
-    configs, nxt_cfg, moved = _moves_of(neighbors.tobytes(), neighbors.shape[0], K)
+    configs, nxt_cfg, moved = _moves_of(neighbors.tobytes(), neighbors.shape[0], K, stop)
     M = int(np.prod(radix))
     mv_idx = np.array(list(itertools.product(*[range(r) for r in radix])), dtype=np.int64).reshape(M, K)
     within = np.all(mv_idx <= np.where(counted, bud, np.iinfo(np.int64).max), axis=1)

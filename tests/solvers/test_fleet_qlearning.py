@@ -152,13 +152,19 @@ def test_robots_that_can_only_pass_by_swapping_are_infeasible():
         assert "no joint plan keeps the rules between robots" in r.solver["note"]
 
 
-def test_a_time_limit_stops_the_build_of_the_table_of_legal_joint_states():
+def test_a_time_limit_stops_the_build_of_the_table_of_legal_joint_states(monkeypatch):
     """Two robots on a factory floor (21 x 21 points) with ends and binding budgets: the table
     of legal joint states took 9 s to build, and the time limit was only checked after it (a
     fuzz campaign, 2026-12-02). The build now checks the stop rule; the plan is greedy's,
-    stopped at once, legal and valued by the simulator."""
+    stopped at once, legal and valued by the simulator, once: its second valuation took 2 s
+    inside the limit at T = 60,590 (a fuzz campaign)."""
+    import voiopt.result
+
+    simulate, runs = voiopt.result.simulate, []
+    monkeypatch.setattr(voiopt.result, "simulate", lambda *a, **k: runs.append(1) or simulate(*a, **k))
     inst = voiopt.generate_set(1, seed=1030, preset="factory", n_sensors=3, horizon=11, robots=2, max_moves=8)[0]
     r = voiopt.solve(inst, "qlearning", "mean-min-voi", time_limit=0.3, episodes=1000)
+    assert len(runs) == 1
     assert r.status == "time_limit" and r.runtime_s <= 0.3 * 1.1 + 1
     assert "the MDP's tables" in r.solver["note"] and "greedy's, stopped at once" in r.solver["note"]
     d = inst.to_dict()
