@@ -183,3 +183,21 @@ def sigint_after(seconds: float):
         yield
     finally:
         timer.cancel()
+
+
+def stop_at_check(monkeypatch, n: int) -> None:
+    """The stop rule fires from its n-th check on (a time limit reached: every Stop alive, as
+    a solver's and the baseline it runs inside share one clock), wherever the clock is:
+    mid-walk, mid-build, deterministically."""
+    from voiopt import stop as stop_mod
+
+    calls = {"n": 0}
+    check = stop_mod.Stop.check
+
+    def late_check(self, memory_used=0.0):
+        calls["n"] += 1
+        if calls["n"] >= n and not self.requested:
+            self.request(stop_mod.TIME_LIMIT)
+        return check(self, memory_used)
+
+    monkeypatch.setattr(stop_mod.Stop, "check", late_check)

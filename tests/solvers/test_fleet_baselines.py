@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import SWAP_ONLY, fleet_instances, oracle_optima, undecided
+from conftest import SWAP_ONLY, fleet_instances, oracle_optima, stop_at_check, undecided
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -310,7 +310,7 @@ def test_a_stopped_walk_that_gives_up_falls_back_on_staying_at_the_dock(method, 
     that is not home at once gives up; the stop fires mid-walk."""
 
     monkeypatch.setattr(fleet_baselines, "MAX_TRIES_STOPPED", -1)
-    _stop_at_the_12th_check(monkeypatch)
+    stop_at_check(monkeypatch, 12)
     inst = voiopt.generate(4, 40, seed=3, robots=3, end="start")
     r = voiopt.solve(inst, method)
     assert r.status == "time_limit" and r.plan is not None, r.solver
@@ -320,29 +320,13 @@ def test_a_stopped_walk_that_gives_up_falls_back_on_staying_at_the_dock(method, 
     assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-min-voi"], rel=1e-12)
 
 
-def _stop_at_the_12th_check(monkeypatch):
-    """The stop rule fires at its 12th check: mid-walk, wherever the clock is."""
-    from voiopt import stop as stop_mod
-
-    calls = {"n": 0}
-    check = stop_mod.Stop.check
-
-    def late_check(self, memory_used=0.0):
-        calls["n"] += 1
-        if calls["n"] == 12:
-            self.request(stop_mod.TIME_LIMIT)
-        return check(self, memory_used)
-
-    monkeypatch.setattr(stop_mod.Stop, "check", late_check)
-
-
 def test_a_stopped_walk_that_cannot_get_home_soon_gives_up_within_its_grace(monkeypatch):
     """Robot 2's dock is the corner, robots 0 and 1 dock beside it and get home first. The
     stopped walk then went on one joint move per slot, wasting no tries, to the last slot
     (at T = 134,203 on a factory floor, 9 s past a 1.8 s limit) before it backtracked. Now it
     gives up GRACE_S after the stop (here 0.05 s) and the robots stay at their docks."""
     monkeypatch.setattr(fleet_baselines, "GRACE_S", 0.05)
-    _stop_at_the_12th_check(monkeypatch)
+    stop_at_check(monkeypatch, 12)
     d = {"name": "corner", "area": {"width": 4, "height": 4}, "horizon": 20_000,
          "robots": [{"start": [0, 1], "end": [0, 1], "max_moves": 40}, {"start": [1, 0], "end": [1, 0], "max_moves": 40},
                     {"start": [0, 0], "end": [0, 0], "max_moves": 40}],

@@ -149,6 +149,10 @@ def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
     if joint.status == "infeasible":  # greedy only says so with a proof (an exhausted exact search)
         run.details["note"] = f"no legal joint plan: {joint.solver.get('note')} (MODEL.md section 10)"
         return "infeasible"
+    if all(r.end is None or r.end == r.start for r in inst.robots):  # staying is legal: offered first, so
+        starts = [lattice_mod.build(inst.robot(k)).start for k in range(inst.n_robots)]  # a stop from here on
+        stay = np.repeat(np.array(starts, dtype=np.int64)[:, None], inst.horizon, axis=1)  # still has a plan
+        run.incumbent.offer(*check_plan(inst, Plan.from_indices(inst, stay, np.full_like(stay, -1))), source="warm start")
     idx, sched = np.empty((2, inst.n_robots, inst.horizon), dtype=np.int64)
     for k in range(inst.n_robots):
         left = run.stop.remaining()
@@ -162,12 +166,15 @@ def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
         return None
     except PlanError as e:
         run.details["warm_start"] = f"greedy repaired by the path model (the robots' greedy plans conflict: {e})"
-    if all(r.end is None or r.end == r.start for r in inst.robots):
-        stay = np.repeat(idx[:, :1], inst.horizon, axis=1)
-        run.incumbent.offer(*check_plan(inst, Plan.from_indices(inst, stay, np.full_like(stay, -1))), source="warm start")
+    if run.stop.check():  # greedy spent the time left (its walker stopped, and gave up): no time to repair
+        run.details["warm_start"] += "; stopped before the repair"
+        return None if run.incumbent.idx is not None else _no_plan_yet(run, f"greedy: {joint.solver.get('note')}")
     import highspy
 
-    model = model_mod.build_covering(inst, run.objective, -math.inf)  # no cover rows: the paths alone
+    try:
+        model = model_mod.build_covering(inst, run.objective, -math.inf, run.stop)  # no cover rows: the paths alone
+    except Stopped:
+        return None if run.incumbent.idx is not None else _no_plan_yet(run, "the path model was not built")
     left = run.remaining()
     cap = REPAIR_S if left is None else min(left, max(1.0, REPAIR_SHARE * left))
     # maximise agreement with the greedy plans within the cap, else any plan in the time left
@@ -190,7 +197,11 @@ def _fleet_warm(run: _Run, warm_start: Plan | None) -> str | None:
         run.details["note"] = ("no legal joint plan: the robots cannot all keep their ends and budgets without sharing "
                                "a point or swapping points (MODEL.md section 10); HiGHS proved the path model infeasible")
         return "infeasible"
-    run.details["note"] = f"stopped before any legal joint plan was found (HiGHS: {h.modelStatusToString(ms)})"
+    return _no_plan_yet(run, f"HiGHS: {h.modelStatusToString(ms)}")
+
+
+def _no_plan_yet(run: _Run, why: str) -> str:
+    run.details["note"] = f"stopped before any legal joint plan was found ({why})"
     return "error"
 
 

@@ -253,13 +253,14 @@ def build(instance: Instance, objective: str, *, scale: float | None = None, sto
     return model
 
 
-def build_covering(instance: Instance, objective: str, threshold: float) -> Model | None:
+def build_covering(instance: Instance, objective: str, threshold: float, stop=None) -> Model | None:
     """The 0-1 feasibility problem "every sensor's worth is >= threshold in every slot"
     (``threshold`` a worth: V for min-voi, -A for max-aoi), or None if some (i, t) cannot
     reach it at all. For each (i, t) whose initial packet is below the threshold: some upload
-    of i before t at a level whose worth at t is >= threshold."""
+    of i before t at a level whose worth at t is >= threshold. voiopt.stop.Stopped if
+    ``stop`` says stop while the worths of the uploads are computed."""
     kind = objectives.get(objective).worth
-    st = structure(instance, kind)
+    st = structure(instance, kind, stop)
     tr = _Triplets()
     lower, upper, integrality, fleet_cols = _path(st, tr)
     rows, cols, n_cover = [], [], 0
