@@ -15,6 +15,7 @@ QUICK = [
     ["qlearning_speed.py"],
     ["exact_scale.py", "--settings", "paper"],
     ["milp_scale.py", "--objectives", "min-voi", "max-aoi", "--threads", "1"],
+    ["simulate_speed.py"],
 ]
 
 

@@ -13,7 +13,7 @@ import voiopt
 from voiopt.errors import PlanError
 from voiopt.generate import case_study_plan
 from voiopt.plan import Plan
-from voiopt.simulate import simulate
+from voiopt.simulate import check_plan, simulate
 
 CASE_STUDY_PLAN = case_study_plan().to_dict()
 
@@ -148,3 +148,63 @@ def test_sensor_out_of_every_range_only_decays():
     traj = simulate(inst, Plan.from_dict({"positions": [list(inst.start)] * 5, "schedule": [None] * 5}))
     assert traj.aoi[:, 0].tolist() == [3, 4, 5, 6, 7, 8]
     assert np.all(np.diff(traj.voi[:, 0]) < 0)
+
+
+@st.composite
+def long_indices(draw):
+    """A network and (K, T) point indices and schedule, T around the simulator's LONG; the
+    walk and uploads random (the dynamics do not need them legal), distinct sensors per slot."""
+    from voiopt import lattice
+    from voiopt.simulate import LONG
+
+    n, K = draw(st.integers(1, 6)), draw(st.integers(1, 3))
+    T = draw(st.sampled_from([1, 7, LONG - 1, LONG, LONG + 2500]))
+    inst = voiopt.generate(n, T, rho=(0.05, 0.999), initial_aoi=(1, 9), seed=draw(st.integers(0, 10_000)))
+    lat = lattice.build(inst)
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    idx = rng.integers(0, len(lat.points), size=(K, T))
+    period = draw(st.sampled_from([1, 13, 50, T]))  # uploads in the first 40 slots of each period
+    busy = draw(st.sampled_from([0.0, 0.3, 0.9]))
+    sched = np.full((K, T), -1)
+    for t in range(T):
+        if t % period < 40 and rng.random() < busy:
+            sensors = rng.permutation(np.arange(-1, n))[:K]  # distinct, or none
+            sched[:len(sensors), t] = sensors
+    ok = sched >= 0
+    sched[ok & ~lat.in_range[np.where(ok, sched, 0), idx]] = -1  # uploads only in range
+    return inst, idx, sched
+
+
+@settings(max_examples=40, deadline=None)
+@given(long_indices())
+def test_the_closed_form_dynamics_and_distinct_pairs_change_no_bit(case):
+    """simulate_indices computes every slot at once and values each sensor's distinct (age,
+    distance) pairs once from LONG slots on (4 s at T = 3 x 10^5 before, most of it libm): the
+    ages, distances and VoI must be those of ``advance`` applied slot by slot and of
+    physics.voi on every entry, bit for bit."""
+    _same_as_slot_by_slot(*case)
+
+
+@pytest.mark.parametrize("robots", [1, 3])
+@pytest.mark.parametrize("method", ["shortest-path", "idle"])
+def test_a_long_tour_is_valued_bit_for_bit_as_slot_by_slot(method, robots):
+    """The same on the plans of a tour (which repeat their ages) at T = 6000, and on a plan
+    without uploads (every sensor aged A(0) + t)."""
+    inst = voiopt.generate(5, 6000, seed=11, robots=robots)
+    if method == "idle":
+        r = voiopt.solve(inst, "shortest-path")
+        idx, sched = check_plan(inst, r.plan)
+        idx, sched = np.repeat(np.atleast_2d(idx)[:, :1], 6000, axis=1), np.full((robots, 6000), -1)
+    else:
+        idx, sched = check_plan(inst, voiopt.solve(inst, method).plan)
+    _same_as_slot_by_slot(inst, np.atleast_2d(idx), np.atleast_2d(sched))
+
+
+def _same_as_slot_by_slot(inst, idx, sched):
+    from voiopt.simulate import simulate_indices, slot_by_slot
+
+    aoi, dist, v = slot_by_slot(inst, idx, sched)
+    traj = simulate_indices(inst, idx if len(idx) > 1 else idx[0], sched if len(sched) > 1 else sched[0])
+    assert np.array_equal(traj.aoi, aoi) and traj.aoi.dtype == aoi.dtype
+    assert np.array_equal(traj.distance, dist)
+    assert np.array_equal(traj.voi.view(np.int64), v.view(np.int64))  # the bits, nan and -0.0 included

@@ -44,24 +44,29 @@ def check_plan(instance: Instance, plan: Plan | FleetPlan) -> tuple[np.ndarray, 
     if len(plan.schedule) != T:
         raise PlanError(f"schedule: must have horizon = {T} entries, got {len(plan.schedule)}")
     idx = np.empty(T, dtype=np.int64)
+    known: dict[tuple, int] = {}  # a long plan stands on few points: each is looked up once
     for t, (x, y) in enumerate(plan.positions):
-        p = lat.index(x, y)
+        p = known.get((x, y))
         if p is None:
-            inside = -1e-9 <= x <= instance.width + 1e-9 and -1e-9 <= y <= instance.height + 1e-9
-            why = "is not a lattice point" if inside else "is outside the area"
-            raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] {why} (step {instance.step:g}, area {instance.width:g} x {instance.height:g})")
+            p = lat.index(x, y)
+            if p is None:
+                inside = -1e-9 <= x <= instance.width + 1e-9 and -1e-9 <= y <= instance.height + 1e-9
+                why = "is not a lattice point" if inside else "is outside the area"
+                raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] {why} (step {instance.step:g}, area {instance.width:g} x {instance.height:g})")
+            if lat.blocked[p]:
+                raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] is a blocked point (blocked points may never be stood on)")
+            known[(x, y)] = p
         idx[t] = p
-        if lat.blocked[p]:
-            raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] is a blocked point (blocked points may never be stood on)")
     if idx[0] != lat.start:
         x, y = plan.positions[0]
         raise PlanError(f"positions[0]: must equal start {list(instance.start)}, got [{x:g}, {y:g}]")
-    for t in range(1, T):
-        if idx[t] not in lat.neighbors[idx[t - 1]]:
-            (x0, y0), (x1, y1) = plan.positions[t - 1], plan.positions[t]
-            raise PlanError(
-                f"positions[{t}]: [{x1:g}, {y1:g}] is not one N/S/E/W step (or stay) from positions[{t-1}] [{x0:g}, {y0:g}]"
-            )
+    steps = (lat.neighbors[idx[:-1]] == idx[1:, None]).any(axis=1)  # positions[t] one step (or stay) from t - 1
+    if not steps.all():
+        t = int(np.argmin(steps)) + 1
+        (x0, y0), (x1, y1) = plan.positions[t - 1], plan.positions[t]
+        raise PlanError(
+            f"positions[{t}]: [{x1:g}, {y1:g}] is not one N/S/E/W step (or stay) from positions[{t-1}] [{x0:g}, {y0:g}]"
+        )
     _check_field_rules(instance, plan, idx)
     sched = np.full(T, -1, dtype=np.int64)
     for t, u in enumerate(plan.schedule):
@@ -94,9 +99,11 @@ def _check_fleet(instance: Instance, plan: Plan | FleetPlan) -> tuple[np.ndarray
             idx[k], sched[k] = check_plan(instance.robot(k), plan.robots[k])
         except PlanError as e:
             raise PlanError(f"robots[{k}].{e}") from None
+    if not _conflicts(idx, sched):
+        return idx, sched
     pts = lattice_mod.build(instance).points
     xy = lambda p: f"[{pts[p, 0]:g}, {pts[p, 1]:g}]"  # noqa: E731
-    for t in range(T):
+    for t in range(T):  # the first conflict, slot by slot, for its message
         for k in range(1, K):
             for j in range(k):
                 if idx[k, t] == idx[j, t]:
@@ -109,6 +116,19 @@ def _check_fleet(instance: Instance, plan: Plan | FleetPlan) -> tuple[np.ndarray
                     raise PlanError(f"robots[{k}].schedule[{t}]: sensor {sched[k, t]} also uploads to robot {j} in slot "
                                     f"{t} (a sensor uploads to at most one robot per slot)")
     return idx, sched
+
+
+def _conflicts(idx: np.ndarray, sched: np.ndarray) -> bool:
+    """Whether two robots share a point, swap points or upload one sensor in some slot: the
+    rules between robots of section 10, on all slots at once (a loop over the slots took
+    most of a second at T = 10^5)."""
+    for k in range(1, len(idx)):
+        for j in range(k):
+            if (idx[k] == idx[j]).any() or ((sched[k] >= 0) & (sched[k] == sched[j])).any():
+                return True
+            if ((idx[k, 1:] == idx[j, :-1]) & (idx[j, 1:] == idx[k, :-1])).any():
+                return True
+    return False
 
 
 def _check_field_rules(instance: Instance, plan: Plan, idx: np.ndarray) -> None:
@@ -152,10 +172,43 @@ def simulate(instance: Instance, plan: Plan | FleetPlan) -> Trajectory:
 def simulate_indices(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> Trajectory:
     """The dynamics for an already-checked plan given as point indices and schedule (-1 = none):
     (T,) arrays for one robot, (K, T) for a fleet, whose uploads in a slot all count (section 10)."""
+    aoi, dist = _dynamics(instance, idx, sched)
+    rho = np.array([s.rho for s in instance.sensors])
+    power = np.array([s.power_w for s in instance.sensors])
+    v = _voi(aoi, dist, rho, power, instance.channel)
+    return Trajectory(idx, sched, aoi, dist, v, metrics_of(aoi, v))
+
+
+def _dynamics(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(A(t), q(t)) for t = 0..T: ``advance`` applied slot by slot, in closed form. A sensor's
+    latest upload before slot t, in slot s, leaves it aged t - s with that upload's distance;
+    with none it is aged A_i(0) + t at q_i(0). (At T = 3 x 10^5 the loop over the slots took
+    1.5 s; tests/test_simulate.py checks the two agree.)"""
     lat = lattice_mod.build(instance)
     T, N = instance.horizon, instance.n_sensors
-    aoi = np.empty((T + 1, N), dtype=np.int64)
-    dist = np.empty((T + 1, N))
+    sched2, idx2 = np.atleast_2d(sched), np.atleast_2d(idx)  # (K, T): one row per robot
+    latest = np.zeros((T + 1, N), dtype=np.int64)  # 1 + the slot of the latest upload seen in row t
+    got = np.zeros((T + 1, N))  # the distance of each upload, in the row after its slot
+    k, t = np.nonzero(sched2 >= 0)
+    u = sched2[k, t]
+    latest[t + 1, u] = t + 1
+    got[t + 1, u] = lat.distance[u, idx2[k, t]]
+    np.maximum.accumulate(latest, axis=0, out=latest)
+    rows = np.arange(T + 1, dtype=np.int64)[:, None]
+    a0 = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
+    q0 = np.array([instance.initial_distance(i) for i in range(N)], dtype=float)
+    aoi = np.where(latest > 0, rows - latest + 1, a0 + rows)
+    dist = np.where(latest > 0, got[latest, np.arange(N)], q0)
+    return aoi, dist
+
+
+def slot_by_slot(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, q, V) as MODEL.md section 3 states the dynamics: ``advance`` slot by slot, then
+    physics.voi on every entry. The reference that ``_dynamics`` and ``_voi`` must equal bit for
+    bit (tests/test_simulate.py, benchmarks/simulate_speed.py); too slow to use at long horizons."""
+    lat = lattice_mod.build(instance)
+    T, N = instance.horizon, instance.n_sensors
+    aoi, dist = np.empty((T + 1, N), dtype=np.int64), np.empty((T + 1, N))
     aoi[0] = [s.initial_aoi for s in instance.sensors]
     dist[0] = [instance.initial_distance(i) for i in range(N)]
     for t in range(T):
@@ -163,8 +216,26 @@ def simulate_indices(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> 
         aoi[t + 1], dist[t + 1] = advance(aoi[t], dist[t], u, lat.distance[u, p])
     rho = np.array([s.rho for s in instance.sensors])
     power = np.array([s.power_w for s in instance.sensors])
-    v = physics.voi(aoi, dist, rho, power, instance.channel)
-    return Trajectory(idx, sched, aoi, dist, v, metrics_of(aoi, v))
+    return aoi, dist, physics.voi(aoi, dist, rho, power, instance.channel)
+
+
+LONG = 2048  # rows from which ``_voi`` takes each sensor's distinct (age, distance) pairs once
+
+
+def _voi(aoi: np.ndarray, dist: np.ndarray, rho: np.ndarray, power: np.ndarray, channel) -> np.ndarray:
+    """physics.voi of every (slot, sensor). A long plan repeats a sensor's (age, distance) pairs
+    (a robot that tours its sensors every 50 slots sees about 50 ages per distance), and libm
+    takes a few hundred nanoseconds per call: so from LONG rows on each distinct pair of a
+    sensor is valued once (2.4 s at T = 3 x 10^5 before). An entry depends on its own arguments
+    alone, so this changes no bit (tests/test_simulate.py)."""
+    if aoi.shape[0] < LONG:
+        return physics.voi(aoi, dist, rho, power, channel)
+    out = np.empty(aoi.shape)
+    for i in range(aoi.shape[1]):
+        dv, di = np.unique(dist[:, i], return_inverse=True)
+        keys, back = np.unique(aoi[:, i] * len(dv) + di.reshape(-1), return_inverse=True)  # < 2e6 x (T + 1)
+        out[:, i] = physics.voi(keys // len(dv), dv[keys % len(dv)], rho[i], power[i], channel)[back.reshape(-1)]
+    return out
 
 
 def evaluate(instance: Instance, plan: Plan | FleetPlan | dict) -> dict[str, float]:
