@@ -218,11 +218,16 @@ def test_the_joint_moves_are_built_in_chunks_that_a_stop_interrupts(monkeypatch)
     n, K = nb.shape[0], 3
     monkeypatch.setattr(joint, "_MOVES", type(joint._MOVES)())
     monkeypatch.setattr(joint, "CHUNK", 5)  # n**K = 216 joint points: 44 chunks
+    chunks = []
+    kernel = joint._joint_moves
+    monkeypatch.setattr(joint, "_joint_moves", lambda *a: chunks.append(a[-2]) or kernel(*a))
     stop = Stop()
-    stop.request()
-    with pytest.raises(Stopped):
+    check = Stop.check
+    monkeypatch.setattr(Stop, "check", lambda self, *a: (len(chunks) == 3 and self.request(), check(self, *a))[1])
+    with pytest.raises(Stopped):  # stopped between chunks: after the third, before the fourth
         joint._moves_of(nb.tobytes(), n, K, stop)
-    assert not joint._MOVES
+    assert chunks == [0, 5, 10] and not joint._MOVES
+    monkeypatch.setattr(Stop, "check", check)
     configs, nxt_cfg, moved = joint._moves_of(nb.tobytes(), n, K, Stop())
     for c, cfg in enumerate(itertools.product(range(n), repeat=K)):
         assert tuple(configs[c]) == cfg

@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
 from voiopt.errors import PlanError
 from voiopt.models import milp as model_mod
 from voiopt.plan import Plan
@@ -22,12 +21,12 @@ REPAIR_SHARE, REPAIR_S, REPAIR_GAP = 0.1, 10.0, 0.05
 
 def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
     """A fleet's first legal plan into the incumbent: the given one; else the fleet greedy's
-    (baselines.greedy plans jointly, without conflicts, in the time left); if it found none,
-    "every robot stays at its start" (legal when no robot has an end elsewhere: starts are
-    distinct), so a stop from here on still has a plan, and milp stops here if the time is up;
-    then each robot's greedy plan alone, if together they keep section 10's rules (a sensor
-    serving two robots in one slot stays with the first); else their repair: the plan of the
-    path model (no cover rows) that keeps most of their positions, moves and uploads. None once there is a plan, "infeasible" when
+    (baselines.greedy plans jointly, without conflicts, in the time left; where every robot
+    staying at its start is legal, it has at least that plan); if it found none, milp stops
+    here if the time is up; else each robot's greedy plan alone, if together they keep
+    section 10's rules (a sensor serving two robots in one slot stays with the first); else
+    their repair: the plan of the path model (no cover rows) that keeps most of their
+    positions, moves and uploads. None once there is a plan, "infeasible" when
     HiGHS proves there is none, "error" when stopped before either."""
     inst = run.instance
     if warm_start is not None:
@@ -46,10 +45,7 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
     if joint.status == "infeasible":  # greedy only says so with a proof (an exhausted exact search)
         run.details["note"] = f"no legal joint plan: {joint.solver.get('note')} (MODEL.md section 10)"
         return "infeasible"
-    if all(r.end is None or r.end == r.start for r in inst.robots):  # staying is legal: offered first, so
-        starts = [lattice_mod.build(inst.robot(k)).start for k in range(inst.n_robots)]  # a stop from here on
-        stay = np.repeat(np.array(starts, dtype=np.int64)[:, None], inst.horizon, axis=1)  # still has a plan
-        run.incumbent.offer(*check_plan(inst, Plan.from_indices(inst, stay, np.full_like(stay, -1))), source="warm start")
+    # (where every robot staying at its start is legal, greedy has returned that plan)
     idx, sched = np.empty((2, inst.n_robots, inst.horizon), dtype=np.int64)
     for k in range(inst.n_robots):
         left = run.stop.remaining()
@@ -65,13 +61,13 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
         run.details["warm_start"] = f"greedy repaired by the path model (the robots' greedy plans conflict: {e})"
     if run.stop.check():  # greedy spent the time left (its walker stopped, and gave up): no time to repair
         run.details["warm_start"] += "; stopped before the repair"
-        return None if run.incumbent.idx is not None else _no_plan_yet(run, f"greedy: {joint.solver.get('note')}")
+        return _no_plan_yet(run, f"greedy: {joint.solver.get('note')}")
     import highspy
 
     try:
         model = model_mod.build_covering(inst, run.objective, -math.inf, run.stop)  # no cover rows: the paths alone
     except Stopped:
-        return None if run.incumbent.idx is not None else _no_plan_yet(run, "the path model was not built")
+        return _no_plan_yet(run, "the path model was not built")
     left = run.remaining()
     cap = REPAIR_S if left is None else min(left, max(1.0, REPAIR_SHARE * left))
     # maximise agreement with the greedy plans within the cap, else any plan in the time left
@@ -88,8 +84,6 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
         if ms == highspy.HighsModelStatus.kInfeasible or run.stop.requested:
             break
 
-    if run.incumbent.idx is not None:  # stopped during the repair: the solve stops with the stay plan
-        return None
     if ms == highspy.HighsModelStatus.kInfeasible:
         run.details["note"] = ("no legal joint plan: the robots cannot all keep their ends and budgets without sharing "
                                "a point or swapping points (MODEL.md section 10); HiGHS proved the path model infeasible")

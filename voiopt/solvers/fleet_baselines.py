@@ -31,7 +31,8 @@ from voiopt.stop import Stop
 MAX_JOINT_UPLOADS = 4096  # joint upload choices scored exhaustively per slot; above, robot by robot
 MAX_TRIES = 20_000  # joint moves the walker may try beyond one per slot before it gives up (about 15 s for greedy)
 MAX_TRIES_STOPPED = 500  # and once the stop rule has fired (then robots only head home)
-GRACE_S = 0.5  # nor may a stopped walk run on for longer: a doomed one wastes no tries, one slot at a time, to T
+GRACE_S = 0.5  # nor may a stopped walk run on for longer once every robot could be home: a doomed one
+# wastes no tries, one slot at a time, to T (a walk still on its robots' fewest moves home may go on)
 MAX_NODES = 20_000  # partial joint moves one slot's enumeration may visit (on a packed lattice it is exponential)
 
 
@@ -107,7 +108,7 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
     K, T = instance.n_robots, instance.horizon
     cur0 = tuple(lat.start for lat in lats)
     frames = []  # per slot t: (cur, used, uploads, state after uploads, options)
-    tries, stopped_at, stopped_clock, cuts = 0, None, 0.0, []
+    tries, stopped_at, stopped_clock, home_by, cuts = 0, None, 0.0, 0, []
 
     def open_frame(t, cur, used, state):
         if stop.check():
@@ -137,8 +138,9 @@ def _walk(instance: Instance, stop: Stop, state0, begin: Callable, prefer: Calla
         if stop.requested and stopped_at is None:
             stopped_at = tries - t  # a plan needs one joint move per slot: budgets count the tries beyond
             stopped_clock = time.monotonic()
-        if tries - t > MAX_TRIES or stopped_at is not None and (
-                tries - t - stopped_at > MAX_TRIES_STOPPED or time.monotonic() - stopped_clock > GRACE_S):
+            home_by = t + max(int(lat.to_end[c]) for lat, c in zip(lats, cur, strict=True))
+        if tries - t > MAX_TRIES or stopped_at is not None and (tries - t - stopped_at > MAX_TRIES_STOPPED or (
+                t > home_by and time.monotonic() - stopped_clock > GRACE_S)):
             raise NoJointPlan(f"the conflict-free walker gave up after {tries - 1} joint moves (slot {t}"
                               f"{', stopped' if stopped_at is not None else ''})", False)
         new_used = tuple(u + (a != b) for u, a, b in zip(used, cur, nxt, strict=True))
