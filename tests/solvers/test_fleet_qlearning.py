@@ -179,3 +179,18 @@ def test_stopped_while_building_the_table_with_no_plan_to_fall_back_on():
     r = voiopt.solve(undecided(SWAP_ONLY), "qlearning", time_limit=1e-9, episodes=10)
     assert r.status == "infeasible" and r.plan is None
     assert "greedy found no plan" in r.solver["note"] and "no legal joint plan" in r.solver["note"]
+
+
+def test_the_first_chunk_of_a_fleet_weighs_its_joint_actions():
+    """Four robots with 3 sensors in range: 50,625 joint actions, each step of the kernel scans
+    them (about 300 us). The first chunk was sized in steps alone, 30,000 episodes at T = 2, and
+    a 1.81 s limit ended after 18 to 28 s (a review, 2026-12-02). Chunks now weigh a step by its
+    joint actions; one robot's chunks are as before (at most 64 actions a step)."""
+    d = {"name": "n3-t2", "area": {"width": 3, "height": 2}, "horizon": 2,
+         "robots": [{"start": [1, 2], "end": [1, 1]}, {"start": [3, 1], "end": [3, 2]},
+                    {"start": [0, 0], "end": [0, 0]}, {"start": [1, 1], "end": [2, 1]}],
+         "sensors": [{"position": [0.59414, 0.599962], "rho": 0.07}, {"position": [1.0715, 1.458318], "rho": 0.2},
+                     {"position": [2.295507, 1.500813], "rho": 0.67}]}
+    r = voiopt.solve(from_dict(d), "qlearning", "mean-max-aoi", time_limit=0.5)
+    assert r.status == "time_limit" and r.runtime_s <= 0.5 * 1.1 + 1, r.solver
+    assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["mean-max-aoi"], rel=1e-12)

@@ -32,6 +32,7 @@ BETA, GAMMA, EPISODES = 0.75, 0.9, 1_000_000
 # steps (episodes x T) of the kernel's first call, and the fewest and most of any call; the stop
 # rule is checked between calls, which aim at 0.25 s each (2000, 100 and 200,000 episodes at T = 30)
 FIRST_STEPS, MIN_STEPS, MAX_STEPS = 60_000, 3_000, 6_000_000
+ACTIONS_PER_STEP = 64  # a step scans at most this many actions (one robot: 5 moves x (1 + sensors in range))
 
 
 def warm_up(fleet: bool = False) -> float:
@@ -140,7 +141,10 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         eps0 = settings["epsilon0"]
         rng = np.array([seed_state(seed)], dtype=np.uint64)
         T = instance.horizon
-        done, chunk = 0, max(FIRST_STEPS // T, 1)  # in episodes; one episode at T = 10^6 is about 0.1 s
+        # chunks in episodes, sized in steps (one episode at T = 10^6 is about 0.1 s), and a step
+        # weighs its joint actions: each step of a fleet scans them (4 robots: 50,625, 300 us a step)
+        work = T * max(1, model.max_actions // ACTIONS_PER_STEP)
+        done, chunk = 0, max(FIRST_STEPS // work, 1)
         columns = (TextColumn("eps {task.fields[eps]:.3f}"), TextColumn("greedy plan {task.fields[greedy]}"),
                    TextColumn("states {task.fields[states]}"))
         with progress_bar(progress, *columns) as bar:
@@ -151,7 +155,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
                 ran, fits = train_fn(model, table, n, eps, eps0, beta, gamma, rng)
                 done += ran
                 elapsed = time.perf_counter() - c0
-                chunk = max(int(min(max(chunk * min(4.0, 0.25 / max(elapsed, 1e-3)), MIN_STEPS // T), MAX_STEPS // T)), 1)
+                chunk = max(int(min(max(chunk * min(4.0, 0.25 / max(elapsed, 1e-3)), MIN_STEPS // work), MAX_STEPS // work)), 1)
                 idx, sched = rollout_fn(model, table)
                 value = simulate_indices(instance, idx, sched).metrics[objective]
                 bar.update(task, completed=done, eps=max(float(eps[0]), 0.0), greedy=f"{value:.6g}",
