@@ -238,3 +238,30 @@ def test_the_joint_moves_are_built_in_chunks_that_a_stop_interrupts(monkeypatch)
             want = sum(q * n ** (K - 1 - k) for k, q in enumerate(nxt)) if legal else -1
             assert nxt_cfg[c, mv] == want, (cfg, dirs)
             assert [bool(x) for x in moved[c, mv]] == [q != p for p, q in zip(cfg, nxt, strict=True)]
+
+
+def test_the_alive_table_is_copied_in_blocks_that_a_stop_interrupts(monkeypatch):
+    """Once a slot of the table of legal joint states equals the next, every earlier slot is a
+    copy of it: 3.2 GB for three robots with budgets at T = 589, 6.9 s that no limit could stop
+    (a fuzz campaign). The copy now goes a block of slots at a time with the stop rule checked
+    between blocks; the blocks change no entry."""
+    import numpy as np
+
+    from voiopt import _grid, joint
+    from voiopt.stop import Stop, Stopped
+
+    nb = _grid.neighbors(3, 3, np.zeros(9, dtype=bool))
+    args = (nb, [0, 8], [3, None], 40)
+    whole = joint.table(*args).alive
+    monkeypatch.setattr(joint, "COPY_BYTES", 1)  # one slot per block
+    checks = []
+    check = Stop.check
+    monkeypatch.setattr(Stop, "check", lambda self, *a: checks.append(1) or check(self, *a))
+    assert np.array_equal(joint.table(*args, stop=Stop()).alive, whole)
+    copied = len(checks)
+    checks.clear()
+    monkeypatch.setattr(Stop, "check", lambda self, *a: (len(checks) == copied - 5 and self.request(),
+                                                          checks.append(1), check(self, *a))[2])
+    with pytest.raises(Stopped):  # five blocks before the end of the copy
+        joint.table(*args, stop=Stop())
+    assert (whole[0] != whole[-1]).any() and copied > 30  # the copy is most of the table's slots

@@ -145,6 +145,7 @@ def _alive_slot(alive, t, c_lo, c_hi, within, nxt_cfg, moved, counted, budgets, 
 
 
 CHUNK = 4096  # joint points per kernel call: the stop rule is checked between calls
+COPY_BYTES = 1 << 26  # bytes of the alive table copied between checks of the stop rule
 
 
 def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, mv_idx, stop=None) -> None:
@@ -161,8 +162,12 @@ def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, m
                 raise Stopped(stop.reason)
             same &= _alive_slot(alive, t, lo, min(C, lo + CHUNK), within, nxt_cfg, moved, counted, budgets,
                                 strides, mv_idx)
-        if same:
-            alive[:t] = alive[t]
+        if same:  # copied a block of slots at a time, the stop rule checked between blocks (3.2 GB took 6.9 s)
+            step = max(1, COPY_BYTES // max(1, alive[t].nbytes))
+            for lo in range(0, t, step):
+                if stop is not None and stop.check() is not None:
+                    raise Stopped(stop.reason)
+                alive[lo:min(t, lo + step)] = alive[t]
             return
 
 

@@ -272,3 +272,16 @@ def test_no_legal_joint_plan_is_infeasible():
     assert oracle.count_legal_plans(d) == 0
     r = voiopt.solve(undecided(d), method="dp", objective="min-voi")
     assert r.status == "infeasible" and r.plan is None
+
+
+def test_a_limit_stops_the_build_of_the_tables_and_greedy_gives_the_plan():
+    """Two robots at T = 1633: dp's value table W grows as T^2 and took 35 s, built without a
+    look at the stop rule, past a 1.69 s limit (a fuzz campaign). Stopped there, the plan is
+    greedy's, stopped at once, legal and valued by the simulator."""
+    d = voiopt.generate(4, 1633, width=2.0, height=2.0, seed=67).to_dict()
+    d.pop("start")
+    d["robots"] = [{"start": [0.0, 2.0]}, {"start": [1.0, 1.0]}]
+    r = voiopt.solve(from_dict(d), "dp", "min-voi", time_limit=0.3)
+    assert r.status == "time_limit" and r.runtime_s <= 0.3 * 1.1 + 1, r.solver
+    assert "stopped while building the tables" in r.solver["note"] and "greedy's" in r.solver["note"]
+    assert r.value == pytest.approx(oracle.simulate(d, r.plan.to_dict())["min-voi"], rel=1e-12)

@@ -6,6 +6,7 @@ that ``Result.from_plan`` simulates; neither reports a value of its own.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import threading
@@ -25,6 +26,7 @@ from voiopt.solvers import fleet_baselines
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     check_limits,
+    idle_plan,
     lattice_bytes,
     require_memory,
 )
@@ -362,3 +364,20 @@ def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) ->
         instance, "shortest-path", objective, plan, status=stop.reason or "feasible",
         runtime_s=stop.elapsed(), solver={**info, "seed": int(seed)},
     )
+
+def stopped_result(instance: Instance, method: str, objective: str, stop, solver: dict, where: str) -> Result:
+    """The result of a solve stopped (``stop``, voiopt.stop.Stop) before it had a plan, ``where``
+    saying where: one robot's idle plan; a fleet's, greedy's plan stopped at once (its walker
+    keeps the rules between robots), greedy's result relabelled so that the plan is valued
+    once; where greedy has none, its status and why."""
+    solver = {**solver, "stopped": stop.describe()}
+    if not instance.fleet:
+        return Result.from_plan(instance, method, objective, idle_plan(instance), status=stop.reason,
+                                runtime_s=stop.elapsed(),
+                                solver={**solver, "note": f"{where}; the plan heads for the end (or stays) without uploads"})
+    walked = greedy(instance, objective, time_limit=1e-9, memory_limit=stop.memory_limit)
+    if walked.plan is None:  # greedy's walker proved there is no plan, or gave up
+        return Result.from_plan(instance, method, objective, None, status=walked.status, runtime_s=stop.elapsed(),
+                                solver={**solver, "note": f"{where}; greedy found no plan: {walked.solver['note']}"})
+    return dataclasses.replace(walked, method=method, status=stop.reason, runtime_s=stop.elapsed(),
+                               solver={**solver, "note": f"{where}; the plan is greedy's, stopped at once"})

@@ -99,6 +99,7 @@ def solve(
     on as many cores."""
     if instance.fleet:  # several robots: the joint programme (docs/dp.md, "Several robots")
         from voiopt.solvers import fleet_dp
+        from voiopt.solvers.baselines import stopped_result
 
         one_robot = dict(greedy=(greedy, True), collapse=(collapse, True), tdma=(tdma, True),
                          pair_bound=(pair_bound, True), tour_bound=(tour_bound, True),
@@ -110,7 +111,7 @@ def solve(
         # the beam: the one-robot default (labels per point) becomes the fleet's (per point pair)
         return fleet_dp.solve(instance, objective, progress=progress, time_limit=time_limit, memory_limit=memory_limit,
                               warm_start=warm_start, beam=fleet_dp.FLEET_BEAM if beam == DEFAULT_BEAM else beam,
-                              bounding=bounding)
+                              bounding=bounding, stopped=stopped_result)
     check_objective(objective)
     check_limits(time_limit, memory_limit)
     check_threads(threads)

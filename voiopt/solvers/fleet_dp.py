@@ -30,7 +30,7 @@ from voiopt.solvers.base import (
     require_memory,
     warm_up_once,
 )
-from voiopt.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, watch
+from voiopt.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, Stopped, watch
 
 MAX_ROBOTS = DP_MAX_ROBOTS  # the product state of three robots on any useful grid is out of reach
 FLEET_BEAM = 2  # labels per point pair in the incumbent's beam pass: wider costs more than it saves (docs/dp.md)
@@ -81,8 +81,10 @@ def check_fleet(instance: Instance, memory_limit: float | None) -> None:
                           f"needs about {need / GB:.3g} GB, over --memory-limit {memory_limit:g}; use milp")
 
 
-def build_joint(instance: Instance, objective: str) -> Joint:
-    tab = build_tables(instance.robot(0), objective)  # ranks and worths are the network's, not a robot's
+def build_joint(instance: Instance, objective: str, stop: Stop | None = None) -> Joint:
+    """The joint tables; voiopt.stop.Stopped if ``stop`` says stop while W is built (it grows as
+    T^2: 35 s at T = 1633, past a 1.69 s limit, a fuzz campaign)."""
+    tab = build_tables(instance.robot(0), objective, stop)  # ranks and worths are the network's, not a robot's
     # to_end as a fresh writable copy whether or not the robot has an end: one array type, so
     # the kernels compile once (a read-only array is another numba type: a compile in the search)
     lats = [lattice_mod.build(instance.robot(k)) for k in range(2)]
@@ -209,16 +211,18 @@ def _incomplete(out: Pass, ub: np.ndarray, keep: np.ndarray, t: int) -> Pass:
 
 def solve(instance: Instance, objective: str, *, progress: bool = False, time_limit: float | None = None,
           memory_limit: float = DEFAULT_MEMORY_GB, warm_start=None, beam: int = FLEET_BEAM,
-          bounding: bool = True) -> Result:
+          bounding: bool = True, stopped=None) -> Result:
     """The optimal joint plan of two robots; on a time or memory limit or Ctrl-C the best plan
-    found and a proven bound, with the stop's reason as the status."""
+    found and a proven bound, with the stop's reason as the status. Stopped before the tables
+    are built, the result of ``stopped`` (baselines.stopped_result, which this module cannot
+    import: the baselines import it), else status error."""
     check_objective(objective)
     check_limits(time_limit, memory_limit)
     check_fleet(instance, memory_limit)
     require_memory(table_bytes(instance), memory_limit, "dp's tables")
     startup_s = warm_up()
     with watch(time_limit, memory_limit) as stop:
-        return _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, progress)
+        return _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, progress, stopped)
 
 
 def warm_up() -> float:
@@ -240,8 +244,15 @@ def warm_up() -> float:
     return warm_up_once("fleet_dp", load)
 
 
-def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, progress) -> Result:
-    jt = build_joint(instance, objective)
+def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, progress, stopped=None) -> Result:
+    try:
+        jt = build_joint(instance, objective, stop)
+    except Stopped:
+        where, solver = "stopped while building the tables", {"startup_s": startup_s}
+        if stopped is not None:  # dp's: greedy's plan, stopped at once (baselines.stopped_result)
+            return stopped(instance, "dp", objective, stop, solver, where)
+        return Result.from_plan(instance, "dp", objective, None, status="error", runtime_s=stop.elapsed(),
+                                solver={**solver, "note": f"{where}, before any plan", "stopped": stop.describe()})
     scale = jt.tab.to_internal  # objective value * scale = the kernels' maximised value
     best = Incumbent(instance, objective)
     passes: dict[str, Pass] = {}

@@ -250,11 +250,11 @@ class _Run:
         t = time.perf_counter()
         try:
             st = model_mod.structure(self.instance, self.kind, self.stop)
+            cand = st.candidates(self.stop)
         except Stopped:  # the best plan so far (the warm start), no bound
             self.details["build_s"] += time.perf_counter() - t
             self.details["note"] = "stopped while the uploads' worths were computed (T^2 of them); the plan is the warm start's"
             return self.stop.reason, None
-        cand = st.candidates()
         top = int(np.searchsorted(cand, st.best_worth()[1:].min(), side="right")) - 1
         lo = self._feasible_index(cand, self.worth(self.incumbent.value))
         hi = top  # cand[hi + 1:] are proven infeasible (or exceed the relaxation)

@@ -3,7 +3,6 @@ the stop rule, and the result of the greedy plan (MODEL.md section 7)."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 
@@ -128,14 +127,10 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
             return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
                                     solver={**settings, "episodes_run": 0, "note": str(e)})
         except Stopped:  # nothing learnt: the plan of a stopped heuristic (no uploads, robots heading home)
-            walked, status, note = _stopped_plan(instance, objective, memory_limit)
-            solver = {**settings, "episodes_run": 0, "note": f"stopped while building the MDP's tables; {note}",
-                      "stopped": stop.describe()}
-            if isinstance(walked, Result):  # greedy's plan, already valued by the simulator: not valued again
-                return dataclasses.replace(walked, method=method, status=status or stop.reason,
-                                           runtime_s=stop.elapsed(), solver=solver)
-            return Result.from_plan(instance, method, objective, walked, status=status or stop.reason,
-                                    runtime_s=stop.elapsed(), solver=solver)
+            from voiopt.solvers.baselines import stopped_result
+
+            return stopped_result(instance, method, objective, stop, {**settings, "episodes_run": 0},
+                                  "stopped while building the MDP's tables")
         table = QTable(model, q_init, stop.memory_bytes, slots=slots)
         eps = np.array([1.0])
         eps0 = settings["epsilon0"]
@@ -179,22 +174,6 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         instance, method, objective, Plan.from_indices(instance, idx, sched),
         status=(stop.reason if done < episodes else None) or "feasible", runtime_s=stop.elapsed(), solver=solver,
     )
-
-
-def _stopped_plan(instance: Instance, objective: str, memory_limit: float) -> tuple[Plan | Result | None, str | None, str]:
-    """The plan, its status if not the stop's, and a note, when Q-learning stops before it
-    learnt anything: one robot heads for its end (or stays) without uploads, as dp and beam's
-    idle plan; a fleet takes greedy's plan, stopped at once (its walker keeps the rules between
-    robots), as greedy's result for ``objective`` (so it is not simulated twice), or greedy's
-    status and why where it has none."""
-    if not instance.fleet:
-        return base.idle_plan(instance), None, "the plan heads for the end (or stays) without uploads"
-    from voiopt.solvers.baselines import greedy
-
-    walked = greedy(instance, objective, time_limit=1e-9, memory_limit=memory_limit)
-    if walked.plan is None:  # greedy's walker proved there is no plan, or gave up
-        return None, walked.status, f"greedy found no plan: {walked.solver['note']}"
-    return walked, None, "the plan is greedy's, stopped at once"
 
 
 def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = False,
