@@ -266,12 +266,15 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
     if warm_start is not None:
         simulate(instance, warm_start)  # a PlanError names what breaks the rules
         offer(_indices(instance, warm_start), "warm_start")
-    first = passes["legal"] = legal_pass(jt, stop)
+    first = passes["legal"] = legal_pass(jt, stop, limited=stopped is not None)
     if first.plan is not None:
         offer(first.plan, "legal")
-    else:
+    elif first.complete:
         return Result.from_plan(instance, "dp", objective, None, status="infeasible", runtime_s=stop.elapsed(),
                                 solver={"passes": {"legal": first.summary()}})
+    elif best.value is None:  # stopped before any plan: dp's fallback (greedy's plan, stopped at once)
+        return stopped(instance, "dp", objective, stop, {"startup_s": startup_s, "passes": {"legal": first.summary()}},
+                       "stopped in the pass that looks for a legal joint plan")
     if beam > 0 and not stop.requested:
         b = passes[f"beam {beam}"] = search(jt, inc(), stop, beam=beam)
         if b.plan is not None:
@@ -300,11 +303,16 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
                             solver=solver)
 
 
-def legal_pass(jt: Joint, stop: Stop) -> Pass:
+def legal_pass(jt: Joint, stop: Stop, limited: bool = False) -> Pass:
     """A legal joint plan, or the proof that none exists: the pass without uploads, whose labels
-    are at most one per (slot, point pair, moves left) state. A stop must return a plan, so this
-    pass alone runs past the time limit (it is small: 30,000 labels, 0.35 s, on 6 x 6 points
-    at T = 30); Ctrl-C and the memory limit still end it, as errors: there is no plan to return."""
+    are at most one per (slot, point pair, moves left) state. ``limited``: the pass follows
+    ``stop`` like any other, and a stop before a plan leaves ``plan`` None and ``complete``
+    False (the caller has another plan to return: dp, greedy's). Otherwise a stop must return
+    a plan, so this pass alone runs past the time limit (it is small: 30,000 labels, 0.35 s, on
+    6 x 6 points at T = 30, but 37 s on a 21 x 21 factory floor at T = 131); Ctrl-C and the
+    memory limit still end it, as errors: there is no plan to return."""
+    if limited:
+        return search(jt, -np.inf, stop, uploads=False)
     with watch(None, stop.memory_limit) as own:
         out = search(jt, -np.inf, own, uploads=False)
     if own.reason == INTERRUPTED:
