@@ -147,6 +147,7 @@ def test_a_second_ctrl_c_exits_at_once():
 
 STARTING = """
 import os, signal, sys
+signal.signal(signal.SIGINT, signal.default_int_handler)  # a terminal's process, even if pytest runs in the background
 class Interrupt:  # delivers a real Ctrl-C to this process the moment numpy starts to import
     def find_spec(self, name, path=None, target=None):
         if name == "numpy":
