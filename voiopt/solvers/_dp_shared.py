@@ -117,12 +117,15 @@ def build_tables(instance: Instance, objective: str, stop: Stop | None = None) -
     R = max(len(c) for c in cand_lists) + 1
     if R >= np.iinfo(np.int16).max:
         raise VoioptError(f"dp: too many candidate uploads per sensor ({R}) for 16-bit ranks (horizon too long)")
-    W = np.full((N, R, T + 1), np.inf)
+    W = np.empty((N, R, T + 1))  # written sensor by sensor: at T = 1633 it is 341 MB, a second of first writes
+    big = stop is not None and W.size >= VOI_BLOCK  # a small table is built in full
     initial_rank = np.empty(N, dtype=np.int16)
     up_rank = np.full((T, n, N), -1, dtype=np.int16)
     t_grid = np.arange(T + 1)
     computed = 0  # worths since the last check of the stop rule
     for i, sensor in enumerate(instance.sensors):
+        if big and i and stop.check() is not None:
+            raise Stopped(stop.reason)
         rank_of = {c: r for r, c in enumerate(cand_lists[i])}
         s0, d0 = -sensor.initial_aoi, (0.0 if aoi else instance.initial_distance(i))
         initial_rank[i] = rank_of[(s0, d0)]
@@ -139,11 +142,12 @@ def build_tables(instance: Instance, objective: str, stop: Stop | None = None) -
                 values[r:r + rows] = physics.voi(np.maximum(age[r:r + rows], 1), dists[r:r + rows], sensor.rho,
                                                  sensor.power_w, instance.channel)
                 computed += values[r:r + rows].size
-                if computed >= VOI_BLOCK and stop is not None:  # a small table is built in full
+                if computed >= VOI_BLOCK and big:
                     computed = 0
                     if stop.check() is not None:
                         raise Stopped(stop.reason)
         W[i, : len(slots)] = np.where(later, values, np.inf)
+        W[i, len(slots):] = np.inf
         for p in np.flatnonzero(lat.in_range[i]):
             d = 0.0 if aoi else float(lat.distance[i, p])
             for s in range(T):
