@@ -21,7 +21,7 @@ import numpy as np
 from voiopt import _grid, _numba_start
 from voiopt._jit import njit
 from voiopt.errors import OptionError
-from voiopt.stop import Stopped
+from voiopt.stop import halt_if_asked
 
 CELLS = 5 * 10**6  # the most joint points x slots (or x joint moves) tabulated by legal_paths (about 1 s)
 WORK = 6 * 10**8  # the most entries x joint moves validation tabulates (about 1 s: up to 5**K moves tried per entry)
@@ -158,15 +158,13 @@ def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, m
     for t in range(T - 2, -1, -1):
         same = True
         for lo in range(0, C, CHUNK):
-            if stop is not None and stop.check() is not None:
-                raise Stopped(stop.reason)
+            halt_if_asked(stop)
             same &= _alive_slot(alive, t, lo, min(C, lo + CHUNK), within, nxt_cfg, moved, counted, budgets,
                                 strides, mv_idx)
         if same:  # copied a block of slots at a time, the stop rule checked between blocks (3.2 GB took 6.9 s)
             step = max(1, COPY_BYTES // max(1, alive[t].nbytes))
             for lo in range(0, t, step):
-                if stop is not None and stop.check() is not None:
-                    raise Stopped(stop.reason)
+                halt_if_asked(stop)
                 alive[lo:min(t, lo + step)] = alive[t]
             return
 
@@ -189,8 +187,7 @@ def _moves_of(neighbors: bytes, n: int, K: int, stop=None):
     nxt_cfg = np.empty((n**K, 5**K), np.int64)  # written chunk by chunk: np.full took 1.2 to 2.8 s, unchecked
     moved = np.empty((n**K, 5**K, K), np.bool_)
     for lo in range(0, n**K, CHUNK):
-        if stop is not None and stop.check() is not None:
-            raise Stopped(stop.reason)
+        halt_if_asked(stop)
         _joint_moves(nb, configs, digit, nxt_cfg, moved, lo, min(n**K, lo + CHUNK))
     _MOVES[key] = (configs, nxt_cfg, moved)
     if len(_MOVES) > 2:

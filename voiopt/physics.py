@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from voiopt.instance import Channel
-from voiopt.stop import Stopped
+from voiopt.stop import halt_if_asked
 
 LN2 = math.log(2.0)
 
@@ -85,8 +85,8 @@ def voi_blocks(aoi, distance, rho, power_w, channel: Channel, *, axis: int, bloc
     out = np.empty(shape)
     step = max(1, block // max(1, out.size // max(1, shape[axis])))
     for lo in range(0, shape[axis], step):
-        if lo and stop is not None and stop.check() is not None:
-            raise Stopped(stop.reason)
+        if lo:
+            halt_if_asked(stop)
         cut = (slice(None),) * axis + (slice(lo, lo + step),)
         part = [a[cut] if a.ndim and a.shape[axis] > 1 else a for a in args]
         out[cut] = voi(*part, channel)

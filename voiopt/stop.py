@@ -85,6 +85,12 @@ class Stopped(Exception):
     rule said stop. Its caller falls back on a plan it can make at once."""
 
 
+def halt_if_asked(stop: Stop | None, memory_used: float = 0.0) -> None:
+    """Between the blocks of such work: raise Stopped if ``stop`` (None: no stop rule) says stop."""
+    if stop is not None and stop.check(memory_used) is not None:
+        raise Stopped(stop.reason)
+
+
 class Interrupted(KeyboardInterrupt):
     """Work stopped by a signal as a whole (a sweep, or a second Ctrl-C). ``exit_code`` is
     128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM."""

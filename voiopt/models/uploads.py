@@ -18,7 +18,7 @@ import numpy as np
 from voiopt import lattice as lattice_mod
 from voiopt import physics
 from voiopt.instance import Instance
-from voiopt.stop import Stopped
+from voiopt.stop import halt_if_asked
 
 # Uploads whose log-scores differ by less than this (relative) are one level (e.g. the four
 # lattice points symmetric about a sensor, whose distances differ only by rounding).
@@ -80,16 +80,11 @@ class Structure:
         all of them took 5.6 s at T = 5342 with 5 sensors)."""
         parts = [np.unique(self.worth0[1:].ravel())]
         for w in self.level_worth:
-            _check(stop)
+            halt_if_asked(stop)
             v = w[1:].ravel()
             parts.append(np.unique(v[~np.isnan(v)]))
         every = np.sort(np.concatenate(parts), kind="stable")  # sorted runs, merged
         return every[np.concatenate(([True], every[1:] != every[:-1]))]
-
-
-def _check(stop) -> None:
-    if stop is not None and stop.check() is not None:
-        raise Stopped(stop.reason)
 
 
 _CACHE: OrderedDict = OrderedDict()  # (instance, kind) -> Structure, the 16 most recent
@@ -135,7 +130,7 @@ def _structure(instance: Instance, kind: str, stop) -> Structure:
     ups: list[tuple[np.ndarray, ...]] = []
     level_worth, level_first = [], []
     for i in range(N):
-        _check(stop)  # a sensor's levels: T^2 worths (1.2 s at T = 5342 in all; checked between the steps)
+        halt_if_asked(stop)  # a sensor's levels: T^2 worths (1.2 s at T = 5342 in all; checked between the steps)
         s_idx, p_idx = np.nonzero(reach & lat.in_range[i][None, :])
         if kind == "voi":
             score = -s_idx * math.log(rho[i]) + log_c[i, p_idx]
@@ -166,11 +161,11 @@ def _structure(instance: Instance, kind: str, stop) -> Structure:
                                    block=VOI_BLOCK, stop=stop)
         else:
             w = -(t_all[:, None] - s_idx[rep][None, :]).astype(float)
-        _check(stop)
+        halt_if_asked(stop)
         w = np.where(t_all[:, None] > first[None, :], w, np.nan)
         # guard the ordering fact against rounding: worth is non-decreasing in the level
         w = np.fmax.accumulate(np.where(np.isnan(w), -np.inf, w), axis=1)
-        _check(stop)
+        halt_if_asked(stop)
         w = np.where(t_all[:, None] > first[None, :], w, np.nan)
         level_worth.append(w)
         level_first.append(first)

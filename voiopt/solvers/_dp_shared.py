@@ -16,7 +16,7 @@ from voiopt import objectives, physics
 from voiopt.errors import VoioptError
 from voiopt.instance import Instance
 from voiopt.solvers.base import lattice_bytes, points_in_range
-from voiopt.stop import Stop, Stopped
+from voiopt.stop import Stop, halt_if_asked
 
 CHUNK_WORK = 100_000  # (label, upload) pairs per kernel call: the granularity of time checks
 PAIR_TABLE_BYTES = 400e6  # the pairwise bound is skipped where its table would be larger
@@ -124,8 +124,8 @@ def build_tables(instance: Instance, objective: str, stop: Stop | None = None) -
     t_grid = np.arange(T + 1)
     computed = 0  # worths since the last check of the stop rule
     for i, sensor in enumerate(instance.sensors):
-        if big and i and stop.check() is not None:
-            raise Stopped(stop.reason)
+        if big and i:
+            halt_if_asked(stop)
         rank_of = {c: r for r, c in enumerate(cand_lists[i])}
         s0, d0 = -sensor.initial_aoi, (0.0 if aoi else instance.initial_distance(i))
         initial_rank[i] = rank_of[(s0, d0)]
@@ -144,8 +144,7 @@ def build_tables(instance: Instance, objective: str, stop: Stop | None = None) -
                 computed += values[r:r + rows].size
                 if computed >= VOI_BLOCK and big:
                     computed = 0
-                    if stop.check() is not None:
-                        raise Stopped(stop.reason)
+                    halt_if_asked(stop)
         W[i, : len(slots)] = np.where(later, values, np.inf)
         W[i, len(slots):] = np.inf
         for p in np.flatnonzero(lat.in_range[i]):

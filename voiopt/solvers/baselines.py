@@ -365,6 +365,7 @@ def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) ->
         runtime_s=stop.elapsed(), solver={**info, "seed": int(seed)},
     )
 
+
 def stopped_result(instance: Instance, method: str, objective: str, stop, solver: dict, where: str) -> Result:
     """The result of a solve stopped (``stop``, voiopt.stop.Stop) before it had a plan, ``where``
     saying where: one robot's idle plan; a fleet's, greedy's plan stopped at once (its walker

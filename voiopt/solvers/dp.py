@@ -130,10 +130,11 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
            progress, threads, known: _dp_subsets.Known | None = None) -> Result:
     try:  # a subset's solve (known) must return a bound: its tables are built in full
         tab = build_tables(instance, objective, stop if known is None else None)
-    except Stopped:  # stopped before any plan
-        return Result.from_plan(instance, "dp", objective, idle_plan(instance), status=stop.reason, runtime_s=stop.elapsed(),
-                                solver={"note": "stopped while the value table was built (it grows as T^2)",
-                                        "stopped": stop.describe(), "startup_s": startup_s})
+    except Stopped:  # stopped before any plan: the idle plan
+        from voiopt.solvers.baselines import stopped_result
+
+        return stopped_result(instance, "dp", objective, stop, {"startup_s": startup_s},
+                              "stopped while the value table was built (it grows as T^2)")
     if tour_bound and tdma and objectives.get(objective).per_slot:  # the bottleneck ones: slower, no tighter (docs/dp.md)
         tab.with_tour_bound()
 

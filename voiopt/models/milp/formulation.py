@@ -40,7 +40,7 @@ from voiopt.instance import Instance
 from voiopt.models.milp import fleet
 from voiopt.models.milp.model import LevelTerms, Model, _Triplets
 from voiopt.models.uploads import Structure, structure
-from voiopt.stop import Stopped
+from voiopt.stop import halt_if_asked
 
 
 def _path_rows(st: Structure, tr: _Triplets) -> None:
@@ -145,8 +145,8 @@ def level_terms(st: Structure, per_slot: bool, stop=None) -> LevelTerms:
     for i in range(N):
         w = st.level_worth[i]
         for t in range(1, T + 1):
-            if t % STOP_SLOTS == 0 and stop is not None and stop.check() is not None:
-                raise Stopped(stop.reason)
+            if t % STOP_SLOTS == 0:
+                halt_if_asked(stop)
             live = ~np.isnan(w[t])
             if not live.any():
                 continue

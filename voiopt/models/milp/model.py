@@ -18,7 +18,7 @@ from voiopt.models.milp.solution import (
     upload_ids,
 )
 from voiopt.models.uploads import Structure
-from voiopt.stop import Stopped
+from voiopt.stop import halt_if_asked
 
 PAIR_BLOCK = 1 << 22  # entry-upload cells tested at once by LevelTerms.uploads (4 MB of booleans)
 
@@ -55,8 +55,8 @@ class LevelTerms:
             rows = max(1, PAIR_BLOCK // len(ui))
             for start in range(0, len(ei), rows):
                 blocks += 1
-                if blocks > 1 and stop is not None and stop.check(memory_used=16.0 * held) is not None:
-                    raise Stopped(stop.reason)
+                if blocks > 1:
+                    halt_if_asked(stop, memory_used=16.0 * held)
                 eb = ei[start:start + rows]
                 hit = ((level >= self.level[eb][:, None]) & (slot >= self.previous_slot[eb][:, None])
                        & (slot < self.slot[eb][:, None]))
