@@ -11,6 +11,8 @@ import random
 import pytest
 from conftest import case_study as _case_study  # noqa: F401  (the fixture)
 from conftest import field_instances, fleet_instances
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -240,28 +242,91 @@ def test_the_joint_moves_are_built_in_chunks_that_a_stop_interrupts(monkeypatch)
             assert [bool(x) for x in moved[c, mv]] == [q != p for p, q in zip(cfg, nxt, strict=True)]
 
 
-def test_the_alive_table_is_copied_in_blocks_that_a_stop_interrupts(monkeypatch):
-    """Once a slot of the table of legal joint states equals the next, every earlier slot is a
-    copy of it: 3.2 GB for three robots with budgets at T = 589, 6.9 s that no limit could stop
-    (a fuzz campaign). The copy now goes a block of slots at a time with the stop rule checked
-    between blocks; the blocks change no entry."""
+def _alive_by_brute_force(nx, ny, blocked, ends, budgets, horizon):
+    """{(t, points, moves made): alive} by plain recursion over every joint move (MODEL.md
+    sections 9 and 10), for robots on distinct points with moves made within their budgets
+    (None: no budget, moves not counted)."""
+    import functools
+    import itertools
+
+    free = [(k, l) for k in range(nx) for l in range(ny) if (k, l) not in blocked]
+    index = {(k, l): k * ny + l for k, l in free}
+
+    def steps(p):
+        k, l = p
+        return [q for q in [(k, l), (k + 1, l), (k - 1, l), (k, l + 1), (k, l - 1)] if q in index]
+
+    @functools.cache
+    def alive(t, pts, made):
+        if t == horizon - 1:
+            return all(e is None or p == e for p, e in zip(pts, ends, strict=True))
+        for nxt in itertools.product(*[steps(p) for p in pts]):
+            if len(set(nxt)) < len(nxt) or any(nxt[a] == pts[b] and nxt[b] == pts[a]
+                                               for a in range(len(pts)) for b in range(a)):
+                continue
+            m2 = tuple(m + (q != p) if b is not None else 0 for m, q, p, b in zip(made, nxt, pts, budgets, strict=True))
+            if all(b is None or m <= b for m, b in zip(m2, budgets, strict=True)) and alive(t + 1, nxt, m2):
+                return True
+        return False
+
+    out = {}
+    for pts in itertools.permutations(free, len(ends)):
+        for made in itertools.product(*[range(b + 1) if b is not None else [0] for b in budgets]):
+            for t in range(horizon):
+                out[t, tuple(index[p] for p in pts), made] = alive(t, pts, made)
+    return out
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.data())
+def test_the_alive_table_matches_brute_force_in_every_slot(data):
+    """The table of joint states that can still keep every rule, read slot by slot through
+    ``row`` (it stores only the slots after the last one equal to its successor), is exactly
+    the plain recursion over joint moves, for two robots with ends, budgets and blocked points."""
     import numpy as np
 
     from voiopt import _grid, joint
-    from voiopt.stop import Stop, Stopped
+
+    nx, ny = data.draw(st.integers(1, 3)), data.draw(st.integers(2, 3))
+    cells = [(k, l) for k in range(nx) for l in range(ny)]
+    blocked = data.draw(st.sets(st.sampled_from(cells), max_size=2))
+    free = [c for c in cells if c not in blocked]
+    if len(free) < 2:
+        return
+    ends = [data.draw(st.one_of(st.none(), st.sampled_from(free))) for _ in range(2)]
+    if ends[0] is not None and ends[0] == ends[1]:
+        ends[1] = None
+    T = data.draw(st.integers(1, 9))
+    budgets = [data.draw(st.one_of(st.none(), st.integers(0, 4))) for _ in range(2)]
+    mask = np.zeros(nx * ny, dtype=bool)
+    for k, l in blocked:
+        mask[k * ny + l] = True
+    tab = joint.table(_grid.neighbors(nx, ny, mask), [-1 if e is None else e[0] * ny + e[1] for e in ends], budgets, T)
+    bud, counted, radix = joint.budgets(budgets, T)
+    want = _alive_by_brute_force(nx, ny, blocked, ends, [int(b) if c else None for b, c in zip(bud, counted, strict=True)], T)
+    for (t, pts, made), alive in want.items():
+        c = pts[0] * nx * ny + pts[1]
+        m = made[0] * radix[1] + made[1]
+        assert bool(tab.row(t)[c, m]) == alive, (t, pts, made)
+
+
+def test_the_alive_table_stores_only_the_slots_that_differ(monkeypatch):
+    """Every slot before the last one equal to its successor is a copy of it (staying is a legal
+    joint move), and is not stored: three robots with budgets at T = 589 once held 3.2 GB of
+    copies, 6.9 s to write. The memory limit counts the slots stored as they are built."""
+    import numpy as np
+
+    from voiopt import _grid, joint
+    from voiopt.stop import MEMORY_LIMIT, Stop, Stopped
 
     nb = _grid.neighbors(3, 3, np.zeros(9, dtype=bool))
-    args = (nb, [0, 8], [3, None], 40)
-    whole = joint.table(*args).alive
-    monkeypatch.setattr(joint, "COPY_BYTES", 1)  # one slot per block
-    checks = []
-    check = Stop.check
-    monkeypatch.setattr(Stop, "check", lambda self, *a: checks.append(1) or check(self, *a))
-    assert np.array_equal(joint.table(*args, stop=Stop()).alive, whole)
-    copied = len(checks)
-    checks.clear()
-    monkeypatch.setattr(Stop, "check", lambda self, *a: (len(checks) == copied - 5 and self.request(),
-                                                          checks.append(1), check(self, *a))[2])
-    with pytest.raises(Stopped):  # five blocks before the end of the copy
-        joint.table(*args, stop=Stop())
-    assert (whole[0] != whole[-1]).any() and copied > 30  # the copy is most of the table's slots
+    args = (nb, [0, 8, 2], [3, None, 4], 600)
+    tab = joint.table(*args)
+    assert tab.first > 0 and len(tab.alive) + tab.first == 600 and len(tab.alive) < 20
+    assert (tab.row(0) == tab.row(tab.first)).all() and not (tab.row(tab.first) == tab.row(599)).all()
+    path = joint.walk(tab, [6, 4, 1])  # a legal plan through the stored slots
+    assert path.shape == (3, 600) and list(path[:, -1][:2]) == [0, 8]
+    with pytest.raises(Stopped) as e:  # a limit smaller than the stored slots stops the build
+        joint.table(*args, stop=Stop(memory_limit=(tab.configs.nbytes + tab.nxt_cfg.nbytes + tab.moved.nbytes
+                                                   + 2.5 * tab.alive[0].nbytes) / 1e9))
+    assert e.value.args == (MEMORY_LIMIT,)

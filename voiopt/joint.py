@@ -4,9 +4,11 @@ Each robot alone may reach its ``end`` within its ``max_moves`` and still the fl
 legal plan: two robots in a corridor cannot pass each other. ``table`` fills, backwards over
 the slots, which joint points (and moves made, where a budget binds) can still reach the last
 slot keeping every rule: no shared point, no swap, no blocked point, every end and budget. It
-is exact, and its size is the joint points times the slots (times the budgets' digits), so it
-is used only up to CELLS entries: by validation (instance.py rejects a fleet with no joint
-plan) and by the fleet's MDP and baselines (models/fleet_mdp.py).
+is exact. It stores only the slots after the last one equal to its successor (every earlier
+slot is the same), but may need every slot: up to the joint points times the slots (times the
+budgets' digits). So validation (instance.py rejects a fleet with no joint plan) and the
+baselines' exact paths use it only up to CELLS such entries; the fleet's MDP
+(models/fleet_mdp.py) at any size, watched by the memory limit.
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ class NoJointPlan(OptionError):
 
 @dataclass(frozen=True, eq=False)
 class Table:
-    alive: np.ndarray  # (T, n**K, M) uint8: alive[t, config, moves made]
+    alive: np.ndarray  # (T - first, n**K, M) uint8: alive[row(t), config, moves made]
+    first: int  # the slots before it are as slot ``first``: only slots first .. T-1 are stored
     configs: np.ndarray  # (n**K, K) the robots' points of each joint point, robot 0 most significant
     nxt_cfg: np.ndarray  # (n**K, 5**K) the joint point after each joint move, -1 where illegal
     moved: np.ndarray  # (n**K, 5**K, K) whether each robot moves
@@ -48,6 +51,10 @@ class Table:
     counted: np.ndarray  # (K,) bool: the robot's budget binds (its moves made are counted)
     budgets: np.ndarray  # (K,) each robot's min(max_moves, T - 1)
     n_points: int
+
+    def row(self, t: int) -> np.ndarray:
+        """alive in slot t: (n**K, M)."""
+        return self.alive[max(t - self.first, 0)]
 
 
 def budgets(max_moves, horizon: int) -> tuple[np.ndarray, np.ndarray, list[int]]:
@@ -110,10 +117,10 @@ def _joint_moves(neighbors, configs, digit, nxt_cfg, moved, c_lo, c_hi):
 
 
 @njit(cache=True, inline="always")
-def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx):
-    """The first joint move from joint point ``c`` with moves made ``m`` in slot t that leads
-    to a joint point and moves made alive in slot t + 1, no counted robot passing its budget:
-    (next joint point, next moves made), or (-1, -1) if none does."""
+def _next_alive(alive_next, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx):
+    """The first joint move from joint point ``c`` with moves made ``m`` that leads to a joint
+    point and moves made alive in the next slot (``alive_next``: (n**K, M)), no counted robot
+    passing its budget: (next joint point, next moves made), or (-1, -1) if none does."""
     K = counted.shape[0]
     for mv in range(nxt_cfg.shape[1]):
         c2 = nxt_cfg[c, mv]
@@ -125,48 +132,56 @@ def _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_id
                 if mv_idx[m, k] + 1 > budgets[k]:
                     good = False
                 m2 += strides[k]
-        if good and alive[t + 1, c2, m2]:
+        if good and alive_next[c2, m2]:
             return c2, m2
     return -1, -1
 
 
 @njit(cache=True)
-def _alive_slot(alive, t, c_lo, c_hi, within, nxt_cfg, moved, counted, budgets, strides, mv_idx):
-    """Fill alive[t, c_lo:c_hi] from alive[t + 1]: the moves made are ``within`` every budget,
-    and some joint move leads to a joint point and moves made that are alive in the next slot
-    (``_next_alive``). Returns whether those rows equal the next slot's."""
+def _alive_slot(here, alive_next, c_lo, c_hi, within, nxt_cfg, moved, counted, budgets, strides, mv_idx):
+    """Fill here[c_lo:c_hi] (a slot's (n**K, M), zeros) from the next slot's: the moves made
+    are ``within`` every budget, and some joint move leads to a joint point and moves made that
+    are alive in the next slot (``_next_alive``). Returns whether those rows equal the next
+    slot's."""
     same = True
     for c in range(c_lo, c_hi):
-        for m in range(alive.shape[2]):
-            if within[m] and _next_alive(alive, t, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
-                alive[t, c, m] = 1
-            same = same and alive[t, c, m] == alive[t + 1, c, m]
+        for m in range(here.shape[1]):
+            if within[m] and _next_alive(alive_next, c, m, nxt_cfg, moved, counted, budgets, strides, mv_idx)[0] >= 0:
+                here[c, m] = 1
+            same = same and here[c, m] == alive_next[c, m]
     return same
 
 
 CHUNK = 4096  # joint points per kernel call: the stop rule is checked between calls
-COPY_BYTES = 1 << 26  # bytes of the alive table copied between checks of the stop rule
 
 
-def _alive_backwards(alive, within, nxt_cfg, moved, counted, budgets, strides, mv_idx, stop=None) -> None:
-    """Fill alive[t] for t = T-2 .. 0 from alive[t + 1], CHUNK joint points at a time, checking
-    ``stop`` (voiopt.stop.Stop) between them (voiopt.stop.Stopped): two robots on a 21 x 21 factory floor
-    with ends took 8 s, past any time limit. The step from one slot to the one before does not
-    depend on the slot, so once a slot equals the next one, every earlier slot equals it too:
-    they are copied, not computed (a long horizon costs little)."""
-    T, C, _ = alive.shape
-    for t in range(T - 2, -1, -1):
+def _alive_backwards(last, within, nxt_cfg, moved, counted, budgets, strides, mv_idx, horizon, stop=None,
+                     held=0.0) -> tuple[np.ndarray, int]:
+    """(alive, first): the slots first .. T-1 of the table, from the last slot's ``last``
+    backwards, CHUNK joint points at a time, checking ``stop`` (voiopt.stop.Stopped; the
+    memory limit counts the slots stored and ``held`` bytes) between them: two robots on a
+    21 x 21 factory floor with ends took 8 s, past any time limit.
+
+    Staying is always a legal joint move once the robots stand legally, so a slot's alive set
+    holds the next slot's; and the step from one slot to the one before does not depend on the
+    slot. So once a slot equals the next one, every earlier slot equals it too, and is not
+    stored: three robots with budgets at T = 589 once filled 3.2 GB with copies of one slot."""
+    rows = [last]  # slots T-1, T-2, ... down to the first stored one
+    for _ in range(horizon - 1):
+        here = np.zeros_like(last)
         same = True
-        for lo in range(0, C, CHUNK):
-            halt_if_asked(stop)
-            same &= _alive_slot(alive, t, lo, min(C, lo + CHUNK), within, nxt_cfg, moved, counted, budgets,
-                                strides, mv_idx)
-        if same:  # copied a block of slots at a time, the stop rule checked between blocks (3.2 GB took 6.9 s)
-            step = max(1, COPY_BYTES // max(1, alive[t].nbytes))
-            for lo in range(0, t, step):
-                halt_if_asked(stop)
-                alive[lo:min(t, lo + step)] = alive[t]
-            return
+        for lo in range(0, here.shape[0], CHUNK):
+            halt_if_asked(stop, held + (len(rows) + 1) * last.nbytes)
+            same &= _alive_slot(here, rows[-1], lo, min(here.shape[0], lo + CHUNK), within, nxt_cfg, moved, counted,
+                                budgets, strides, mv_idx)
+        if same:
+            break
+        rows.append(here)
+    alive = np.empty((len(rows), *last.shape), dtype=last.dtype)
+    for i in range(len(rows)):
+        alive[len(rows) - 1 - i] = rows[i]
+        rows[i] = None  # each slot freed as it is placed: the peak is one table, not two
+    return alive, horizon - len(alive)
 
 
 _MOVES: collections.OrderedDict = collections.OrderedDict()  # the last two lattices' joint moves
@@ -208,11 +223,11 @@ def table(neighbors: np.ndarray, ends, max_moves, horizon: int, stop=None) -> Ta
     for k, end in enumerate(ends):
         if end >= 0:
             at_end &= configs[:, k] == end
-    alive = np.zeros((T, len(configs), M), dtype=np.uint8)
-    alive[T - 1] = at_end[:, None] & within[None, :]
+    last = (at_end[:, None] & within[None, :]).astype(np.uint8)
     strides = np.cumprod([1, *radix[::-1]])[:-1][::-1].astype(np.int64)
-    _alive_backwards(alive, within, nxt_cfg, moved, counted, bud, strides, mv_idx, stop)
-    return Table(alive, configs, nxt_cfg, moved, mv_idx, strides, counted, bud, neighbors.shape[0])
+    held = float(configs.nbytes + nxt_cfg.nbytes + moved.nbytes)
+    alive, first = _alive_backwards(last, within, nxt_cfg, moved, counted, bud, strides, mv_idx, T, stop, held)
+    return Table(alive, first, configs, nxt_cfg, moved, mv_idx, strides, counted, bud, neighbors.shape[0])
 
 
 def start_index(starts, n_points: int) -> int:
@@ -227,11 +242,11 @@ def walk(tab: Table, starts) -> np.ndarray | None:
     """(K, T) points of a legal joint plan from the starts, the first alive joint move in each
     slot; None if the starts are not alive (no legal plan exists)."""
     c, m = start_index(starts, tab.n_points), 0
-    if not tab.alive[0, c, m]:
+    if not tab.row(0)[c, m]:
         return None
     path = [c]
-    for t in range(tab.alive.shape[0] - 1):  # alive in slot t: some move stays alive
-        c, m = _next_alive(tab.alive, t, c, m, tab.nxt_cfg, tab.moved, tab.counted, tab.budgets, tab.strides,
+    for t in range(tab.first + len(tab.alive) - 1):  # alive in slot t: some move stays alive
+        c, m = _next_alive(tab.row(t + 1), c, m, tab.nxt_cfg, tab.moved, tab.counted, tab.budgets, tab.strides,
                            tab.mv_idx)
         path.append(c)
     return tab.configs[path].T.copy()
@@ -259,4 +274,4 @@ def possible(nx: int, ny: int, blocked: tuple[int, ...], starts: tuple[int, ...]
     mask = np.zeros(nx * ny, dtype=bool)
     mask[list(blocked)] = True
     tab = table(_grid.neighbors(nx, ny, mask), ends, max_moves, horizon)
-    return bool(tab.alive[0, start_index(starts, nx * ny), 0])
+    return bool(tab.row(0)[start_index(starts, nx * ny), 0])

@@ -37,7 +37,8 @@ class FleetMDP:
     starts: np.ndarray  # (K,) lattice index of each robot's p(0)
     budgets: np.ndarray  # (K,) each robot's min(max_moves, T - 1)
     counted: np.ndarray  # (K,) bool: the robot's moves are part of the state (its budget binds)
-    alive: np.ndarray  # (T, n**K, M) uint8, or (1, 1, 1) ones when nothing is masked
+    alive: np.ndarray  # (T - alive_first, n**K, M) uint8 (joint.Table), or (1, 1, 1) ones when nothing is masked
+    alive_first: int  # slot t's row of alive is max(t - alive_first, 0)
     moves_radix: np.ndarray  # (K,) budget + 2 for counted robots, 1 for the others
     masked: bool  # some robot has an end or a binding budget
     field_word: np.ndarray
@@ -93,7 +94,7 @@ class FleetMDP:
         for p, m, r, cnt in zip(points, moves, self.moves_radix.tolist(), self.counted.tolist(), strict=True):
             c = c * n + p
             mi = mi * r + (m if cnt else 0)
-        return bool(self.alive[t, c, mi])
+        return bool(self.alive[max(t - self.alive_first, 0), c, mi])
 
     @cached_property
     def _point_actions(self) -> list[list[tuple[int, int]]]:
@@ -179,12 +180,15 @@ def conflict(points, nxt, up) -> bool:
 
 
 def alive_bytes(instance: Instance) -> float:
-    """The bytes of the joint mask ``alive`` (0 when no robot has an end or a binding budget)."""
+    """The bytes the joint mask ``alive`` needs at least (0 when no robot has an end or a
+    binding budget): two slots, the last and the one being filled. It grows a slot at a time,
+    under the memory limit's watch, until a slot equals the next, which seldom takes more than a
+    few dozen (joint.table); T slots are the most it can hold."""
     T = instance.horizon
     radix = joint.budgets([r.max_moves for r in instance.robots], T)[2]
     if not any(r.end is not None for r in instance.robots) and all(x == 1 for x in radix):
         return 0.0
-    return joint.entries(lattice_mod.n_points(instance), instance.n_robots, T, radix)
+    return joint.entries(lattice_mod.n_points(instance), instance.n_robots, min(T, 2), radix)
 
 
 def _budgets(instance: Instance, lats) -> tuple[np.ndarray, np.ndarray, list[int]]:
@@ -233,11 +237,12 @@ def build(instance: Instance, reward: str = "voi", penalty: float = mdp_mod.IDLE
     budgets, counted, radix = _budgets(instance, lats)
     masked = bool(counted.any() or any(lat.end >= 0 for lat in lats))
     if masked:
-        alive = _alive_table(instance, lats, stop).alive
+        tab = _alive_table(instance, lats, stop)
+        alive, alive_first = tab.alive, tab.first
     else:
-        alive = np.ones((1, 1, 1), dtype=np.uint8)
+        alive, alive_first = np.ones((1, 1, 1), dtype=np.uint8), instance.horizon
     starts = np.array([lat.start for lat in lats], dtype=np.int64)
-    fleet = FleetMDP(one, K, starts, budgets, counted, alive, np.array(radix, dtype=np.int64), masked,
+    fleet = FleetMDP(one, K, starts, budgets, counted, alive, alive_first, np.array(radix, dtype=np.int64), masked,
                      *_packing(one, K, counted, budgets))
     if not fleet._alive(0, tuple(starts.tolist()), (0,) * K):
         raise joint.NoJointPlan(_no_joint_plan(instance))

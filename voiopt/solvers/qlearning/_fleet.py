@@ -42,8 +42,8 @@ def _split(j, points, n_actions, action_upload, action_next, nxt, up):
 
 
 @njit(cache=True)
-def _legal(points, moves, t, horizon, n_actions, action_upload, action_next, masked, alive, radix, counted,
-           budgets, out, nxt, up):
+def _legal(points, moves, t, horizon, n_actions, action_upload, action_next, masked, alive, first, radix,
+           counted, budgets, out, nxt, up):
     """Write the legal joint actions of slot t, ascending, to out; return how many."""
     K = points.shape[0]
     n_points = n_actions.shape[0]
@@ -66,7 +66,7 @@ def _legal(points, moves, t, horizon, n_actions, action_upload, action_next, mas
                     if m > budgets[k]:
                         ok = False
                 mi = mi * radix[k] + m
-            if ok and alive[t + 1, c, mi] == 0:
+            if ok and alive[max(t + 1 - first, 0), c, mi] == 0:
                 ok = False
         if ok:
             out[count] = j
@@ -128,7 +128,7 @@ def _advance(points, moves, aoi, qidx, nxt, up, counted):
 @njit(cache=True, nogil=True)
 def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
            starts, initial_aoi, n_actions, action_upload, action_next, voi_reward, field_word, field_shift,
-           table, tablef, pool, counts, rng, masked, alive, radix, counted, budgets, max_joint):
+           table, tablef, pool, counts, rng, masked, alive, first, radix, counted, budgets, max_joint):
     """Run up to n_episodes episodes; stop early (at an episode boundary) when the table could
     overflow during the next one. Returns the number of episodes run."""
     K, N = starts.shape[0], initial_aoi.shape[0]
@@ -157,7 +157,7 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
             _insert(table, tablef, cur, key[0], key, pool, used, J, q_init)
             n_states += 1
             used += J
-        n_legal = _legal(points, moves, 0, horizon, n_actions, action_upload, action_next, masked, alive, radix,
+        n_legal = _legal(points, moves, 0, horizon, n_actions, action_upload, action_next, masked, alive, first, radix,
                          counted, budgets, legal, nxt, up)
         epsilon = eps[0]
         for t in range(horizon):
@@ -175,7 +175,7 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
             r = _slot_reward(aoi, qidx, voi_reward, aoi_reward) - penalty * idle
             _key(points, aoi, qidx, (t + 1) * slot_in_state, moves, counted, field_word, field_shift, key)
             nxt_slot, found = _find(key[0], key, table)
-            n_next = _legal(points, moves, t + 1, horizon, n_actions, action_upload, action_next, masked, alive,
+            n_next = _legal(points, moves, t + 1, horizon, n_actions, action_upload, action_next, masked, alive, first,
                             radix, counted, budgets, legal_next, nxt, up)
             if found:
                 _, future = _first_max(pool, _row(table, nxt_slot), legal_next, n_next)
@@ -198,7 +198,7 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
 
 @njit(cache=True)
 def _rollout(horizon, slot_in_state, starts, initial_aoi, n_actions, action_upload, action_next, field_word,
-             field_shift, table, pool, masked, alive, radix, counted, budgets, max_joint):
+             field_shift, table, pool, masked, alive, first, radix, counted, budgets, max_joint):
     """The greedy plan: the first maximal legal joint action (the first legal one if unseen)."""
     K, N = starts.shape[0], initial_aoi.shape[0]
     W = table.shape[1] - 2
@@ -209,7 +209,7 @@ def _rollout(horizon, slot_in_state, starts, initial_aoi, n_actions, action_uplo
     key = np.empty(W, np.uint64)
     idx, sched = np.empty((K, horizon), np.int64), np.empty((K, horizon), np.int64)
     for t in range(horizon):
-        n_legal = _legal(points, moves, t, horizon, n_actions, action_upload, action_next, masked, alive, radix,
+        n_legal = _legal(points, moves, t, horizon, n_actions, action_upload, action_next, masked, alive, first, radix,
                          counted, budgets, legal, nxt, up)
         _key(points, aoi, qidx, t * slot_in_state, moves, counted, field_word, field_shift, key)
         s, found = _find(key[0], key, table)
@@ -229,7 +229,7 @@ def _arrays(model: fleet_mdp.FleetMDP) -> tuple:
 
 
 def _masks(model: fleet_mdp.FleetMDP) -> tuple:
-    return (model.masked, model.alive, model.moves_radix, model.counted, model.budgets, model.max_actions)
+    return (model.masked, model.alive, model.alive_first, model.moves_radix, model.counted, model.budgets, model.max_actions)
 
 
 def train(model: fleet_mdp.FleetMDP, table: QTable, n_episodes: int, eps: np.ndarray, eps0: float,
