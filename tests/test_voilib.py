@@ -11,7 +11,7 @@ from test_cli import one_line_error, run
 import voiopt
 from voiopt.errors import OptionError, VoioptError
 from voiopt.experiments import voilib
-from voiopt.generate import case_study_plan
+from voiopt.generate import case_study, case_study_plan
 from voiopt.objectives import OBJECTIVES
 from voiopt.result import Result
 
@@ -103,6 +103,24 @@ def test_score_rejects_a_forged_value():
         voilib.score(sub)
 
 
+@pytest.mark.parametrize("stated", ["1e400", "-1e400"])
+def test_score_rejects_a_value_that_is_not_finite(tmp_path, capsys, stated):
+    """1e400 reads as infinity, and |inf - value| <= 1e-9 * inf held: a review scored it."""
+    sub = _submission("paper-n4-t30-000", "mean-min-voi")
+    path = tmp_path / "inf.json"
+    path.write_text(json.dumps({**sub, "value": 0.5}).replace('"value": 0.5', f'"value": {stated}'))
+    code, _, err = run(capsys, "bench", "score", str(path))
+    assert code == 2 and "value: must be a finite number" in one_line_error(err)
+
+
+def test_score_gives_the_certificate_as_numbers():
+    sub = _submission("paper-n4-t30-000", "mean-min-voi")
+    row = voilib.score(sub)
+    cert = CERTS["instances"]["paper-n4-t30-000"]["certificates"]["mean-min-voi"]
+    assert row["result"] is None and (row["certified_status"], row["certified_value"], row["certified_bound"]) == (
+        cert["status"], cert["value"], cert["bound"])
+
+
 def test_a_result_solved_on_an_edited_copy_is_told_so():
     edited = LIB["paper-n4-t30-000"].to_dict()
     edited["sensors"][0]["rho"] = 0.5 if edited["sensors"][0]["rho"] != 0.5 else 0.6
@@ -118,7 +136,7 @@ def test_score_needs_an_objective_but_no_value():
     sub = _submission("paper-n4-t30-000", "mean-min-voi")
     unstated = {k: v for k, v in sub.items() if k != "value"}
     assert voilib.score(unstated)["value"] == sub["value"]  # the simulator's value either way
-    with pytest.raises(OptionError, match=r"^RESULT: objective: is required \(one of min-voi, "):
+    with pytest.raises(OptionError, match=r"^result: objective: is required \(one of min-voi, "):
         voilib.score({k: v for k, v in sub.items() if k != "objective"})
 
 
@@ -137,8 +155,10 @@ def test_bench_commands(capsys, tmp_path):
     d = _submission("walls-n4-t30-000", "max-aoi")
     d["value"] = d["value"] - 1
     forged.write_text(json.dumps(d))
-    code, _, err = run(capsys, "bench", "score", str(honest), str(forged))
-    assert code == 2 and "is not what its plan gives" in one_line_error(err)
+    code, out, err = run(capsys, "bench", "score", str(forged), str(honest))  # the good file is still scored
+    assert code == 2 and "is not what its plan gives" in one_line_error(err) and "walls-n4-t30-000" in out
+    code, out, err = run(capsys, "bench", "score", str(forged), str(honest), str(forged))  # a line per bad file
+    assert code == 2 and err.count("is not what its plan gives") == 2 and len(err.strip().splitlines()) == 2
     unknown = tmp_path / "unknown.json"
     unknown.write_text(json.dumps({**d, "instance": "nope"}))
     code, _, err = run(capsys, "bench", "score", str(unknown))
@@ -172,7 +192,12 @@ def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys)
     ({"instance": "case-study", "objective": "max-aoi", "plan": {"positions": [], "schedule": []}},
      "positions: must have horizon = 10 entries, got 0"),
     ({"instance": "case-study", "objective": "max-aoi", "plan": case_study_plan().to_dict(),
-      "value": "12"}, "value: '12' is not what its plan gives"),
+      "value": "12"}, 'value: must be a finite number (or absent), got "12"'),
+    ({"instance": "case-study", "objective": "max-aoi", "plan": case_study_plan().to_dict(),
+      "value": True}, "value: must be a finite number (or absent), got true"),
+    ({"objective": "max-aoi", "plan": case_study_plan().to_dict()}, "instance: is required"),
+    (case_study().to_dict(), "an instance, not a result"),
+    ({"version": 1, "instances": {}}, "a certificates file, not a result"),
 ])
 def test_hostile_submissions_are_one_line_errors_naming_the_file(capsys, tmp_path, doc, message):
     path = tmp_path / "sub.json"

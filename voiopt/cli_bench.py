@@ -11,6 +11,7 @@ from voiopt._files import check_output_dir, check_output_file
 from voiopt.objectives import DEFAULT, OBJECTIVES
 
 out = Console(highlight=False, soft_wrap=True)
+err = Console(stderr=True, highlight=False, soft_wrap=True)
 wide = Console(highlight=False, width=None if out.is_terminal else 200)  # tables are not cut to 80 columns in a pipe
 
 
@@ -45,15 +46,20 @@ def cmd_bench_export(args) -> int:
 def cmd_bench_score(args) -> int:
     from voiopt.experiments import voilib
 
-    rows = voilib.score_files(args.results)  # a forged value or an illegal plan raises: exit 2
-    t = Table(title="gap to the VoI-Lib certificate (re-simulated)")
-    for col in ("result", "instance", "objective", "value", "certified", "gap to bound", "gap to best"):
-        t.add_column(col)
-    pct = lambda g: "-" if g is None else f"{100 * g:.4g} %"  # noqa: E731
-    for r in rows:
-        t.add_row(r["result"], r["instance"], r["objective"], f"{r['value']:.6g}", r["certified"],
-                  pct(r["gap_to_bound"]), pct(r["gap_to_best"]))
-    wide.print(t)
+    rows, errors = voilib.score_files(args.results)  # a forged value or an illegal plan: exit 2
+    if rows:
+        t = Table(title="gap to the VoI-Lib certificate (re-simulated)")
+        for col in ("result", "instance", "objective", "value", "certified", "gap to bound", "gap to best"):
+            t.add_column(col)
+        pct = lambda g: "-" if g is None else f"{100 * g:.4g} %"  # noqa: E731
+        for r in rows:
+            t.add_row(r["result"], r["instance"], r["objective"], f"{r['value']:.6g}", r["certified"],
+                      pct(r["gap_to_bound"]), pct(r["gap_to_best"]))
+        wide.print(t)
+    for e in errors[:-1]:  # one line each; the last is main's, with exit status 2
+        err.print(f"voiopt: error: {e}", markup=False)
+    if errors:
+        raise errors[-1]
     return 0
 
 

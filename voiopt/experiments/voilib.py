@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import os
 from importlib import resources
 from pathlib import Path
@@ -192,18 +193,25 @@ def find_instance(result: dict[str, Any]) -> tuple[str, Instance]:
             if instance_hash(inst) == digest:
                 return name, inst
         raise OptionError(f"instance_sha256: {show(digest)} is no VoI-Lib {VERSION} instance")
+    if "instance" not in result:
+        raise OptionError("instance: is required (a VoI-Lib instance's name), or instance_sha256")
     name = result.get("instance")
     if not isinstance(name, str) or name not in lib:
         raise OptionError(f"instance: {show(name)} is no VoI-Lib {VERSION} instance (see voiopt bench list)")
     return name, lib[name]
 
 
-def score(result: dict[str, Any], source: str = "RESULT") -> dict[str, Any]:
+def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
     """Re-simulate a submitted result (``instance``, ``objective``, ``plan``, optional
-    ``value``) against its VoI-Lib instance; its gap to the certificate. A stated value its
-    plan does not give, or an illegal plan, raises with one line."""
+    ``value``) against its VoI-Lib instance; its gap to the certificate, and the certificate's
+    status, value and bound as numbers (``certified`` is its text). A stated value its plan
+    does not give, or an illegal plan, raises with one line, naming ``source`` (a file)."""
+    row_source, source = source, source or "result"
     if not isinstance(result, dict):
         raise OptionError(f"{source}: must be a result object with instance, objective and plan")
+    if "sensors" in result or "instances" in result:
+        what = "an instance" if "sensors" in result else "a certificates file"
+        raise OptionError(f"{source}: {what}, not a result (instance, objective and plan; voiopt solve -o writes one)")
     name, inst = find_instance(result)
     objective = result.get("objective")
     if objective is None:
@@ -212,36 +220,39 @@ def score(result: dict[str, Any], source: str = "RESULT") -> dict[str, Any]:
         raise OptionError(f"{source}: objective: must be one of {', '.join(OBJECTIVES)}, got {str(objective)[:40]!r}")
     if "plan" not in result:
         raise OptionError(f"{source}: plan: is required")
-    value = simulate(inst, Plan.from_dict(result["plan"])).metrics[objective]
     stated = result.get("value")
+    if stated is not None and (isinstance(stated, bool) or not isinstance(stated, (int, float))
+                               or not math.isfinite(stated)):
+        raise OptionError(f"{source}: value: must be a finite number (or absent), got {show(stated)}")
+    value = simulate(inst, Plan.from_dict(result["plan"])).metrics[objective]
     if stated is not None:
-        if isinstance(stated, bool) or not isinstance(stated, (int, float)) or not (
-                abs(stated - value) <= VALUE_RTOL * max(abs(stated), abs(value), 1e-300)):
+        if not abs(stated - value) <= VALUE_RTOL * max(abs(stated), abs(value), 1e-300):
             by_name = "" if result.get("instance_sha256") is not None else (
-                "; was it solved on another instance of that name? (a result's instance_sha256 names the instance "
-                "exactly)")
+                "; was it solved on another instance of that name? (instance_sha256, from certificates.json, "
+                "names the instance exactly)")
             raise OptionError(f"{source}: value: {stated!r} is not what its plan gives on VoI-Lib's {name} "
                               f"({value!r} by the simulator): rejected{by_name}")
     cert = certificates()["instances"].get(name, {}).get("certificates", {}).get(objective)
-    row = {"result": source, "instance": name, "objective": objective, "value": value,
-           "certified": show_certificate(cert), "gap_to_bound": None, "gap_to_best": None}
+    row = {"result": row_source, "instance": name, "objective": objective, "value": value,
+           "certified": show_certificate(cert), "certified_status": None, "certified_value": None,
+           "certified_bound": None, "gap_to_bound": None, "gap_to_best": None}
     if cert is not None:
-        row["gap_to_bound"] = gap(value, cert["bound"])
-        row["gap_to_best"] = gap(value, cert["value"])
+        row.update(certified_status=cert["status"], certified_value=cert["value"], certified_bound=cert["bound"],
+                   gap_to_bound=gap(value, cert["bound"]), gap_to_best=gap(value, cert["value"]))
     return row
 
 
-def score_files(paths: list[str]) -> list[dict[str, Any]]:
-    """Score each file; an error names the file it is about."""
-    rows = []
+def score_files(paths: list[str]) -> tuple[list[dict[str, Any]], list[VoioptError]]:
+    """Score each file: (rows of the files scored, the error of each file rejected, naming the
+    file). One bad file among many does not stop the others being scored."""
+    rows, errors = [], []
     for p in paths:
-        data = read_json(p)
         try:
-            rows.append(score(data, str(p)))
+            rows.append(score(read_json(p), str(p)))
         except VoioptError as e:
             message = str(e)
-            raise type(e)(message if message.startswith(f"{p}: ") else f"{p}: {message}") from None
-    return rows
+            errors.append(type(e)(message if message.startswith(f"{p}: ") else f"{p}: {message}"))
+    return rows, errors
 
 
 # ------------------------------------------------------------------------- certification
