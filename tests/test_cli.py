@@ -343,7 +343,34 @@ def test_plot_finds_the_instance_beside_the_result_or_in_the_folder_above(capsys
     voiopt.solve(dock, method="greedy").save(tmp_path / "dock.json")  # a result named like the instance: not taken for it
     for path in (result, tmp_path / "dock.json"):
         code, _, err = run(capsys, "plot", str(path), "-o", "q.png")
-        assert code == 2 and "--instance: give the instance of result 'dock' (no dock.json beside" in one_line_error(err)
+        line = one_line_error(err)
+        assert code == 2 and "--instance: give the instance of result 'dock' (no dock.json beside the result" in line
+        assert ("but the result itself" in line) == (path.name == "dock.json")
+
+
+def test_plot_refuses_a_result_that_its_instance_does_not_give(capsys, tmp_path, monkeypatch):
+    """A result solved on an edited copy of the case study (the same name) was drawn on the
+    built-in case study, with that network's value and the result's "optimal" in the title; a
+    result whose value was edited was drawn as its file said (a review). Both are refused, and
+    evaluate notes it."""
+    edited = json.loads(Path(CASE).read_text())
+    edited["sensors"][0]["rho"] = 0.2
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "rho.json").write_text(json.dumps(edited))
+    monkeypatch.chdir(tmp_path)  # no ./instances here
+    assert run(capsys, "solve", "in/rho.json", "-o", "r.json", "--quiet")[0] == 0
+    code, _, err = run(capsys, "plot", "r.json", "-o", "p.png")
+    line = one_line_error(err)
+    assert code == 2 and "its plan on the built-in case study does not give what the result says" in line
+    assert "--instance" in line and not (tmp_path / "p.png").exists()
+    assert run(capsys, "plot", "r.json", "--instance", "in/rho.json", "-o", "p.png")[0] == 0
+    code, out, err = run(capsys, "evaluate", CASE, "r.json")
+    assert code == 0 and "note: r.json says otherwise (min-voi" in err and "mean-min-voi" in out
+    forged = json.loads((tmp_path / "r.json").read_text())
+    forged["value"] *= 2
+    (tmp_path / "f.json").write_text(json.dumps(forged))
+    code, _, err = run(capsys, "plot", "f.json", "--instance", "in/rho.json", "-o", "f.png")
+    assert code == 2 and "mean-min-voi" in one_line_error(err) and "stored" in err
 
 
 def test_a_command_stopped_as_a_whole_says_whether_it_kept_results(capsys, monkeypatch, tmp_path):

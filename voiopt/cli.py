@@ -15,13 +15,15 @@ from rich.table import Table
 import voiopt
 from voiopt import _numba_start, fields, lattice
 from voiopt import instance as instance_mod
-from voiopt._files import check_output_dir, check_output_file
+from voiopt._files import check_output_dir, check_output_file, read_json
 from voiopt.cli_bench import add_commands as add_bench_commands
 from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
 from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
+from voiopt.plan import plan_of
+from voiopt.result import disagreement
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 from voiopt.stop import last_signal
 
@@ -104,11 +106,16 @@ def cmd_validate(args) -> int:
 
 def cmd_evaluate(args) -> int:
     inst = instance_mod.load(args.instance)
-    plan = voiopt.load_plan(args.plan, inst.name)
+    d = read_json(args.plan, error=PlanError)
+    plan = plan_of(d, args.plan, inst.name)
     try:
         metrics = voiopt.evaluate(inst, plan)
     except PlanError as e:  # the plan breaks a rule of this instance: name the plan's file
         raise PlanError(f"{args.plan}: {e}") from None
+    differ = disagreement(d.get("metrics"), metrics) if isinstance(d, dict) else None
+    if differ:  # a result's own metrics: solved on another instance, or edited
+        err.print(f"note: {args.plan} says otherwise ({differ}): it was solved on another instance than "
+                  f"{args.instance}, or edited", markup=False)
     if args.json:
         print(json.dumps({"instance": inst.name, "metrics": metrics}, indent=2))
     else:
@@ -250,7 +257,8 @@ def cmd_plot(args) -> int:
     check_output_file(args.output)
     result = voiopt.load_result(args.result)
     try:
-        plot_result(result, instance_for(result, args.instance, args.result), args.output)
+        inst, where = instance_for(result, args.instance, args.result)
+        plot_result(result, inst, args.output, where)
     except PlanError as e:  # the result's plan breaks a rule of its instance: name the file
         raise PlanError(f"{args.result}: {e}") from None
     out.print(f"wrote {args.output}", markup=False)

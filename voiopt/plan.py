@@ -145,7 +145,11 @@ def load_plan(path: str | os.PathLike, instance_name: str | None = None) -> Plan
     """The plan of a plan file or a result JSON; every error names the file. With
     ``instance_name``, a result made for another instance (by its ``instance`` field) is
     refused: its plan would be judged against the wrong network."""
-    d = read_json(path, error=PlanError)
+    return plan_of(read_json(path, error=PlanError), path, instance_name)
+
+
+def plan_of(d: Any, path: str | os.PathLike, instance_name: str | None = None) -> Plan | FleetPlan:
+    """``load_plan`` of a file's JSON ``d`` already read (``path`` names it in errors)."""
     if isinstance(d, dict) and "sensors" in d:
         raise PlanError(f"{path}: an instance, not a plan ({{positions, schedule}}) or a result JSON")
     if isinstance(d, dict) and "objective" in d and "plan" not in d and "positions" not in d and "robots" not in d:

@@ -19,7 +19,7 @@ from voiopt.generate import case_study
 from voiopt.instance import Instance
 from voiopt.objectives import DEFAULT as OBJECTIVE
 from voiopt.plan import FleetPlan, Plan
-from voiopt.result import Result
+from voiopt.result import Result, disagreement
 from voiopt.simulate import simulate
 from voiopt.solvers import RANDOMISED
 
@@ -135,11 +135,18 @@ def _draw_field_rules(ax, instance: Instance, plan: Plan | FleetPlan) -> None:
                                        f"({spec.max_moves - moves} left)")
 
 
-def plot_result(result: Result, instance: Instance, path: str | os.PathLike) -> None:
-    """``voiopt plot``: one result's trajectory, with its simulated metrics in the title."""
+def plot_result(result: Result, instance: Instance, path: str | os.PathLike, where: str = "the instance") -> None:
+    """``voiopt plot``: one result's trajectory, with its simulated metrics in the title. The
+    result's stored metrics and value must be what its plan gives on ``instance`` (found at
+    ``where``): else the instance is not the one it was solved on, or the file was edited,
+    and its status cannot be put in a title."""
     if result.plan is None:
         raise OptionError(f"RESULT: the result has no plan (status {result.status})")
     metrics = simulate(instance, result.plan).metrics  # re-simulated: the file is not trusted
+    differ = disagreement(result.metrics, metrics) or disagreement({result.objective: result.value}, metrics)
+    if differ:
+        raise OptionError(f"RESULT: its plan on {where} does not give what the result says ({differ}): give the "
+                          "instance it was solved on with --instance (or the file was edited)")
     fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
     title = f"{instance.name} — {result.method}, {result.objective} = {metrics[result.objective]:.4g} ({result.status})"
     draw_plan(ax, instance, result.plan, title)
@@ -240,23 +247,25 @@ def case_study_figures(inst: Instance, results: dict[str, Result], out: Path) ->
     return [out / "fig3_case_study.png", out / "fig3_case_study.csv", out / "fig4_voi_over_time.png", out / "fig4_voi_over_time.csv"]
 
 
-def instance_for(result: Result, instance_path: str | None, result_path: str | None = None) -> Instance:
-    """The instance a result belongs to: given, or the first NAME.json beside the result file,
-    in the folder above it, or in ./instances, or the built-in case study."""
+def instance_for(result: Result, instance_path: str | None, result_path: str | None = None) -> tuple[Instance, str]:
+    """The instance a result belongs to, and where it was found: given, or the first NAME.json
+    beside the result file, in the folder above it, or in ./instances, or the built-in case
+    study."""
     name = f"{result.instance}.json"
     folders = [] if result_path is None else [Path(result_path).parent, Path(result_path).parent.parent]
     found = None if instance_path else next(
         (f / name for f in [*folders, Path("instances")]
          if (f / name).is_file() and (result_path is None or not (f / name).samefile(result_path))), None)
     if instance_path:
-        inst = instance_mod.load(instance_path)
+        inst, where = instance_mod.load(instance_path), str(instance_path)
     elif found is not None:
-        inst = instance_mod.load(found)
+        inst, where = instance_mod.load(found), str(found)
     elif result.instance == "case-study":
-        inst = case_study()
+        inst, where = case_study(), "the built-in case study"
     else:
-        raise OptionError(f"--instance: give the instance of result {result.instance!r} (no {name} beside the result, "
-                          "in the folder above it or in ./instances)")
+        itself = result_path is not None and any((f / name).is_file() for f in folders)  # the result's own name
+        raise OptionError(f"--instance: give the instance of result {result.instance!r} (no {name} beside the result"
+                          f"{' but the result itself' if itself else ''}, in the folder above it or in ./instances)")
     if inst.name != result.instance:
         raise OptionError(f"--instance: the result is for {result.instance!r}, the instance is {inst.name!r}")
-    return inst
+    return inst, where

@@ -135,6 +135,26 @@ def load_result(path: str | os.PathLike) -> Result:
         raise VoioptError(f"{path}: {e}") from None
 
 
+STORED_RTOL = 1e-9  # a result file's stored metrics against its plan re-simulated (the same simulator: equal bits)
+
+
+def disagreement(stored: Any, metrics: dict[str, float]) -> str | None:
+    """The first of a result file's stored metrics (a dict, or anything else: nothing stored)
+    that its plan, re-simulated, does not give, as "NAME S stored, V simulated"; None if all
+    agree. A plan re-simulated on another instance than it was solved on, or a file edited by
+    hand, shows here."""
+    if not isinstance(stored, dict):
+        return None
+    for name, v in metrics.items():
+        if name not in stored:
+            continue
+        s = stored[name]
+        if isinstance(s, bool) or not isinstance(s, (int, float)) or not (
+                abs(s - v) <= STORED_RTOL * max(abs(s), abs(v), TINY)):
+            return f"{name} {s!r} stored, {v!r} simulated"
+    return None
+
+
 def _clean(v: float | None) -> float | None:
     return None if v is None else float(v)
 
