@@ -11,6 +11,8 @@ from oracles.bruteforce import brute_force
 
 import voiopt
 from voiopt.errors import OptionError
+from voiopt.generate import case_study as case_study_instance
+from voiopt.instance import from_dict
 from voiopt.objectives import OBJECTIVES
 from voiopt.solvers import _dp_search, dp
 
@@ -223,3 +225,17 @@ def test_a_limit_stops_the_build_of_the_value_table_and_its_blocks_change_no_bit
         r = solve(inst, "mean-min-voi", time_limit=1e-9)
         assert r.status == "time_limit" and all(u is None for u in r.plan.schedule)
         assert r.plan.positions[-1] == inst.end and r.metrics == voiopt.evaluate(inst, r.plan)
+
+
+def test_a_range_past_the_area_is_not_refused_as_too_large():
+    """Any d_th past the area's diagonal gives the same network; the memory estimates counted
+    (2 d_th / step + 2)^2 points in range, and refused the case study at d_th = 1000 (dp,
+    28.5 GB) and 100 (milp, 4.9 GB), a review found. Points in range are at most the lattice's."""
+    d = case_study_instance().to_dict()
+    d["channel"]["d_th"] = 8.0  # past the 5 x 5 area's diagonal
+    want = voiopt.solve(from_dict(d), method="dp", objective="min-voi").value
+    d["channel"]["d_th"] = 1e9
+    far = from_dict(d)
+    for method in ("dp", "milp"):
+        r = voiopt.solve(far, method=method, objective="min-voi", time_limit=60)
+        assert r.status == "optimal" and r.value == pytest.approx(want, rel=1e-9), method

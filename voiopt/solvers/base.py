@@ -60,8 +60,10 @@ def lattice_bytes(instance: Instance) -> float:
 
 
 def points_in_range(instance: Instance) -> float:
-    """An upper bound on the lattice points within d_th of one sensor (no lattice needed)."""
-    return (2.0 * instance.channel.d_th / instance.step + 2.0) ** 2
+    """An upper bound on the lattice points within d_th of one sensor (no lattice needed): at
+    most the lattice's points, however large d_th (a review found dp refusing the case study,
+    28.5 GB, at d_th = 1000, though any d_th past the area's diagonal is the same network)."""
+    return min((2.0 * instance.channel.d_th / instance.step + 2.0) ** 2, float(lattice_mod.n_points(instance)))
 
 
 class Incumbent:
