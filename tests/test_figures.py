@@ -39,6 +39,7 @@ def test_figures_smoke(tmp_path, capsys):
         assert any("sweep values" in h for h in header)
         assert len(rows) == len(sweep.values) * len(SCHEMES)
         assert all(int(r["networks"]) == 1 and r["mean"] for r in rows)
+        assert all(float(r["ci95"]) == 0.0 for r in rows)  # over networks (one here), not over the seeds too
     md = (out / "figures.md").read_text()
     assert "fig7_nodes.png" in md and "proven optimum" in md
     with open(out / "fig8_robots.csv") as f:  # several robots: the optimum and every method per K

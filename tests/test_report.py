@@ -218,6 +218,10 @@ def test_randomised_methods_run_once_per_seed_through_the_cli(tmp_path, nets):
                            objectives.show_gap(max(gaps))]
     assert "bit/s, idle penalty 100" in summary
     assert "Q-learning: 2000 episodes per run" in summary  # a report made with fewer episodes says so
+    assert {r["reward_units"] for r in rows if r["method"] == "qlearning"} == {"bit/s"}  # the CSV says its reading too
+    assert {r["reward_units"] for r in rows if r["method"] != "qlearning"} == {""}
+    within = sum(g <= 0.01 for g in gaps)
+    assert cells[11] == f"{within}/{len(gaps)}"
     # the bit/s/Hz reading is another experiment: not mixed into the same folder
     assert main(["gap-report", str(nets), "--methods", "qlearning", "--reward-units", "bit/s/Hz",
                  "-o", str(out), "--quiet"]) == 2
@@ -247,3 +251,13 @@ def test_a_changed_instance_of_the_same_name_is_run_again_not_reused(tmp_path, n
     fresh = voiopt.solve(changed, "shortest-path")  # its old result went with the change, though not run then
     assert last[name, "shortest-path"]["value"] == pytest.approx(fresh.value, rel=1e-12)
     assert last[other, "shortest-path"]["value"] == first[other, "shortest-path"]["value"]
+
+
+def test_a_report_with_no_exact_method_says_there_is_no_gap(tmp_path, nets):
+    """Without dp or milp no bound is proven: 'within 1 %' read 0/3, as if every run were far
+    from optimal (a review). It now reads '-', and the summary says why."""
+    report.gap_report([nets], ["greedy", "shortest-path"], "mean-min-voi", tmp_path)
+    summary = (tmp_path / "summary.md").read_text()
+    line = next(line for line in summary.splitlines() if line.startswith("| greedy |"))
+    cells = [c.strip() for c in line.strip("|").split("|")]
+    assert cells[7:12] == ["-"] * 5 and "No method proved a bound" in summary

@@ -153,8 +153,11 @@ def plot_result(result: Result, instance: Instance, path: str | os.PathLike, whe
     save_figure(fig, path)
 
 
-def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path, objective: str) -> None:
-    fig, ax = start_figure(figsize=(1.6 + 1.3 * len(methods), 3.6))
+def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path, objective: str,
+              about: str = "") -> None:
+    """The gap report's figure: each method's proven gaps; ``about`` (networks, episodes, the
+    reward's reading) goes under the title, so the figure says what it shows on its own."""
+    fig, ax = start_figure(figsize=(max(4.2, 1.6 + 1.3 * len(methods)), 3.8))
     data = [[100 * r["gap"] for r in rows if r["method"] == m and r["gap"] is not None] for m in methods]
     positions = range(1, len(methods) + 1)
     ax.boxplot([d or [math.nan] for d in data], positions=list(positions), widths=0.5, showfliers=False)
@@ -163,7 +166,7 @@ def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path
         ax.scatter(jitter, d, s=10, alpha=0.6, color="tab:blue", zorder=3)
     ax.set_xticks(list(positions), methods, rotation=20)
     ax.set_ylabel("proven gap to optimum (%)")
-    ax.set_title(f"{objective}: gap distributions")
+    ax.set_title(f"{objective}: proven gaps to the optimum" + (f"\n{about}" if about else ""), fontsize=9)
     save_figure(fig, path)
 
 

@@ -28,7 +28,7 @@ from voiopt.solvers import RANDOMISED
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
 GAP_COLUMNS = ["instance", "method", "seed", "objective", "status", "value", "bound", "best_value", "best_bound",
-               "gap", "runtime_s", "cause"]
+               "gap", "runtime_s", "cause", "reward_units"]
 NORMAL = ("optimal", "feasible")  # every other status is counted and explained in summary.md
 
 
@@ -66,6 +66,7 @@ def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | No
             "instance": r.instance, "method": r.method, "seed": seed, "objective": r.objective, "status": r.status,
             "value": r.value, "bound": r.bound, "best_value": best_value, "best_bound": best_bound,
             "gap": gap, "runtime_s": r.runtime_s, "cause": cause(r),
+            "reward_units": r.solver.get("reward_units", ""),  # Q-learning's reading of the reward (MODEL.md section 7)
         })
     return rows
 
@@ -91,6 +92,7 @@ def summarise(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> list[di
             "min_gap": min(gaps) if gaps else None,
             "max_gap": max(gaps) if gaps else None,
             "within_1pct": sum(g <= 0.01 for g in gaps),
+            "with_gap": len(gaps),
             "median_runtime_s": statistics.median(times) if times else None,
         })
     return out
@@ -134,15 +136,19 @@ def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instan
     for s in summary:
         rt = "-" if s["median_runtime_s"] is None else f"{s['median_runtime_s']:.3g} s"
         gaps = " | ".join(objectives.show_gap(s[k]) for k in ("mean_gap", "min_gap", "max_gap", "median_gap"))
+        within = f"{s['within_1pct']}/{s['with_gap']}" if s["with_gap"] else "-"  # of the runs with a proven gap
         lines.append(
             f"| {s['method']} | {s['instances']} | {_seed_text(s['seeds'])} | {s['runs']} | {s['optimal']} | "
-            f"{s['errors']} | {s['other']} | {gaps} | {s['within_1pct']}/{s['runs']} | {rt} |"
+            f"{s['errors']} | {s['other']} | {gaps} | {within} | {rt} |"
         )
     odd = [r for r in rows if r["status"] not in NORMAL]
     if odd:
         lines += ["", "Runs that did not finish normally (their gap still counts where they returned a plan):", ""]
         lines += [f"- {r['instance']}, {r['method']}" + ("" if r.get("seed") is None else f", seed {r['seed']}")
                   + f": {r['status']}: {r['cause']}" for r in odd]
+    if summary and not any(s["with_gap"] for s in summary):
+        lines += ["", "No method proved a bound on these instances, so there is no gap: add an exact method "
+                      "(dp or milp) to measure one."]
     if notes:
         lines += ["", *[f"- {n}" for n in notes]]
     lines += ["", "![gap distributions](gaps.png)", ""]
@@ -191,5 +197,8 @@ def gap_report(
     md = summary_markdown(summary, objective, n_instances, reward_units if uses_q else None, rows, notes, episodes)
     with atomic_write(out / "summary.md") as f:
         f.write(md)
-    plot_gaps(rows, methods, out / "gaps.png", objective)
+    about = f"{n_instances} network{'s' if n_instances != 1 else ''}"
+    if uses_q:
+        about += f"; Q-learning {(episodes or 1_000_000):,} episodes, {seeds} seed{'s' if seeds != 1 else ''}, V in {reward_units}"
+    plot_gaps(rows, methods, out / "gaps.png", objective, about)
     return rows

@@ -85,7 +85,7 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
             runs = results[(v, m)]
             by_seed = _values_by_seed(runs)
             seed_means = [statistics.fmean(vals) for vals in by_seed.values()]
-            per_network = [r.value for _, r in runs if r.value is not None]
+            per_network = _network_means(runs)  # a randomised method's seeds averaged first: the CI is over networks
             sd = statistics.stdev(per_network) if len(per_network) > 1 else 0.0
             bounds = [r.bound if r.bound is not None else math.nan for _, r in runs]
             n_networks = len({r.instance for _, r in runs})
@@ -100,6 +100,15 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
                 "errors": sum(r.status == "error" for _, r in runs),
             })
     return rows
+
+
+def _network_means(runs) -> list[float]:
+    """Per network, the mean simulated value over its (seed, Result) runs with a plan."""
+    by_network: dict[str, list[float]] = {}
+    for _, r in runs:
+        if r.value is not None:
+            by_network.setdefault(r.instance, []).append(r.value)
+    return [statistics.fmean(v) for v in by_network.values()]
 
 
 def _values_by_seed(runs) -> dict[int | None, list[float]]:
@@ -201,7 +210,7 @@ def make_figures(
         header = [sweep.title, f"x = {sweep.x_label}; sweep values {list(sweep.values)}; {networks} networks each; "
                   f"seeds {seed}..{seed + seeds - 1}; Q-learning reward in {reward_units}",
                   "mean: of the simulated mean-min-voi (bit/s) over networks, then over seeds; seed_min/seed_max: the worst and best seed's mean; "
-                  "ci95: over networks; dp rows: certified = networks proven optimal, mean_bound = mean proven upper bound"]
+                  "ci95: over networks (each network's mean over the seeds); dp rows: certified = networks proven optimal, mean_bound = mean proven upper bound"]
         write_csv(csv_path, rows, ["x", "method", "networks", "seeds", "mean", "seed_min", "seed_max", "ci95",
                                    "mean_bound", "certified", "errors"], header)
         plot_sweep(sweep, rows, out / f"{key}.png")
