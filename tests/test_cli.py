@@ -189,8 +189,8 @@ def test_a_plan_or_result_given_as_an_instance_and_a_missing_command_get_one_lin
 
 def test_an_option_a_method_does_not_take_is_named_both_ways(capsys):
     code, _, err = run(capsys, "solve", CASE, "--gap", "0.1", "--quiet")  # dp, the default, has no MIP gap
-    assert code == 2 and "--gap (gap=): not an option of method 'dp' (it takes time_limit," in one_line_error(err)
-    with pytest.raises(voiopt.OptionError, match=r"^--time-limt \(time_limt=\): not an option of method 'greedy' "
+    assert code == 2 and "--gap (gap= in Python): not an option of method 'dp' (it takes time_limit," in one_line_error(err)
+    with pytest.raises(voiopt.OptionError, match=r"^--time-limt \(time_limt= in Python\): not an option of method 'greedy' "
                                                  r"\(it takes time_limit, memory_limit\)$"):
         voiopt.solve(voiopt.load(CASE), "greedy", time_limt=1)
 
@@ -232,6 +232,11 @@ def test_the_default_method_is_dp_and_milp_for_three_robots(capsys, tmp_path):
     (["solve", CASE, "--method", "greedy", "-o", "{tmp}/a-file/r.json"], "a-file' in "),
     (["generate", "--count", "2", "--out", ""], "--out: give a name, not an empty one"),
     (["generate", "--count", "200000", "--out", "{tmp}/nets"], "--count: at most 100000 networks in one set"),
+    (["generate", "--dock"], "--dock: starts the robots around robot 0's start; give --robots K with K >= 2"),
+    (["gap-report", CASE, "--methods", "qlearning", "--episodes", "1e100", "-o", "{tmp}/r"],
+     "--episodes: must be an integer from 1 to 1e+12, got 1e+100"),  # not a folder of failed runs
+    (["solve", CASE, "--method", "qlearning", "--episodes", "1e13", "-o", "{tmp}/r.json"],
+     "episodes: must be an integer from 1 to 1e+12, got 1e+13"),
 ])
 def test_bad_options_and_outputs_are_one_line_before_any_work(capsys, tmp_path, argv, says):
     (tmp_path / "a-file").write_text("x")

@@ -137,6 +137,9 @@ def _generate_options(args) -> dict:
         return dict(n_sensors=args.sensors, horizon=args.horizon or fields.FACTORY_HORIZON,
                     max_moves=fields.FACTORY_MAX_MOVES if args.max_moves is None else args.max_moves,
                     robots=args.robots)
+    if args.dock and args.robots < 2:
+        raise OptionError(f"--dock: starts the robots around robot 0's start; give --robots K with K >= 2 "
+                          f"(got --robots {args.robots})")
     pick = lambda v, default: default if v is None else v  # noqa: E731
     return dict(
         n_sensors=pick(args.sensors, 4), horizon=pick(args.horizon, 30), width=pick(args.width, 5.0),
@@ -290,7 +293,7 @@ def _add_executor_options(s: argparse.ArgumentParser) -> None:
 
 def _add_qlearning_options(s: argparse.ArgumentParser, seeds: bool) -> None:
     s.add_argument("--episodes", type=_positive, default=None, metavar="N",
-                   help="Q-learning episodes R_max; 1e6 is accepted (default 1000000, the paper's)")
+                   help="Q-learning episodes R_max, at most 1e12; 1e6 is accepted (default 1000000, the paper's)")
     s.add_argument("--reward-units", default=None if not seeds else "bit/s", choices=list(REWARD_UNITS),
                    help="Q-learning reward: V in bit/s as the paper writes it, or V/B; idle penalty 100 either way "
                         "(default bit/s)")

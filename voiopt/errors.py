@@ -32,6 +32,21 @@ def check_seed(seed) -> None:
         raise OptionError(f"seed: must be an integer >= 0, got {seed!r}")
 
 
+MAX_EPISODES = 10**12  # Q-learning's R_max: about two months of training at the paper's size; past it, a typo
+
+
+def check_episodes(episodes, name: str = "episodes") -> None:
+    """Q-learning's episodes R_max: an integer from 1 to MAX_EPISODES (a huge one is shown in
+    three digits, not a hundred)."""
+    try:
+        n = None if isinstance(episodes, bool) else episodes.__index__()  # int, numpy's integers
+    except (AttributeError, TypeError):
+        n = None
+    if n is None or not 1 <= n <= MAX_EPISODES:
+        got = f"{float(n):.3g}" if n is not None and n > MAX_EPISODES else repr(episodes)
+        raise OptionError(f"{name}: must be an integer from 1 to {MAX_EPISODES:.0e}, got {got}")
+
+
 class MissingExtraError(VoioptError):
     """An optional dependency is not installed; the message names the pip command."""
 

@@ -24,7 +24,14 @@ from typing import Any
 
 from voiopt import instance as instance_mod
 from voiopt._files import atomic_write, loads_json, read_json, safe_name, write_json_atomic
-from voiopt.errors import MissingExtraError, OptionError, VoioptError, WorkerDied, check_seed
+from voiopt.errors import (
+    MissingExtraError,
+    OptionError,
+    VoioptError,
+    WorkerDied,
+    check_episodes,
+    check_seed,
+)
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
 from voiopt.plan import made_for
@@ -137,7 +144,7 @@ def run_options(*, time_limit: float | None, memory_limit: float, episodes: int 
     check_seed(seed)
     check_seeds(seeds)
     if episodes is not None:
-        count_option(episodes, "--episodes")
+        check_episodes(episodes, "--episodes")
     check_reward_units(reward_units)
     check_limits(time_limit, memory_limit)
     check_workers(workers)

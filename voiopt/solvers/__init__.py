@@ -71,6 +71,6 @@ def solve(instance: Instance, method: str | None = None, objective: str = DEFAUL
         for key in options:
             if key not in params:
                 takes = [k for k, p in params.items() if p.kind is p.KEYWORD_ONLY and k != "progress"]
-                raise OptionError(f"--{key.replace('_', '-')} ({key}=): not an option of method {method!r} "
+                raise OptionError(f"--{key.replace('_', '-')} ({key}= in Python): not an option of method {method!r} "
                                   f"(it takes {', '.join(takes)})")
     return fn(instance, objective, **options)

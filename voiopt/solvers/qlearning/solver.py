@@ -11,7 +11,7 @@ from rich.progress import TextColumn
 
 from voiopt import joint
 from voiopt import lattice as lattice_mod
-from voiopt.errors import MemoryLimitError, OptionError, check_seed
+from voiopt.errors import MemoryLimitError, OptionError, check_episodes, check_seed
 from voiopt.instance import Instance
 from voiopt.models import fleet_mdp
 from voiopt.models import mdp as mdp_mod
@@ -65,8 +65,7 @@ def _check_options(episodes, seed, beta, gamma, q_init, penalty):
     def bad(name, value, rule):
         raise OptionError(f"{name}: {rule}, got {value!r}")
 
-    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
-        bad("episodes", episodes, "must be an integer >= 1")
+    check_episodes(episodes)
     for name, v in (("beta", beta), ("gamma", gamma)):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 1:
             bad(name, v, "must be in (0, 1]")
