@@ -396,3 +396,10 @@ def test_a_command_stopped_as_a_whole_says_whether_it_kept_results(capsys, monke
     code, out, err = run(capsys, "gap-report", CASE, "-o", str(tmp_path / "report"))
     assert (code, out) == (130, "")
     assert one_line_error(err) == "voiopt: interrupted (SIGINT); finished results are kept"
+
+
+def test_a_progress_line_in_a_log_keeps_its_counts(capsys, tmp_path):
+    """Off a terminal the bar's last line is written once, and at 80 columns it was cut to
+    '1000000/1…' (a review); it is now as wide as it needs."""
+    code, _, err = run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "123456", "-o", str(tmp_path / "q.json"))
+    assert code == 0 and "123456/123456" in err and "greedy plan" in err

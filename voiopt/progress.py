@@ -7,7 +7,12 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 
 def progress_bar(enabled: bool, *extra_columns) -> Progress:
-    """A rich progress bar on stderr; disabled (no output) when ``enabled`` is false."""
+    """A rich progress bar on stderr; disabled (no output) when ``enabled`` is false. Not on a
+    terminal (a log file, a pipe), the line is not cut to 80 columns: it is written once, at
+    the end, and cut it lost the counts ('1000000/1…')."""
+    console = Console(stderr=True)  # stdout stays for results (--json)
+    if not console.is_terminal:
+        console = Console(stderr=True, width=200)
     return Progress(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
@@ -16,5 +21,5 @@ def progress_bar(enabled: bool, *extra_columns) -> Progress:
         TimeElapsedColumn(),
         disable=not enabled,
         transient=False,
-        console=Console(stderr=True),  # stdout stays for results (--json)
+        console=console,
     )
