@@ -297,7 +297,7 @@ def test_plot_names_the_file_of_a_result_it_cannot_read(capsys, tmp_path):
         code, _, err = run(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
         assert code == 2 and f"{result}: objective: unknown objective" in one_line_error(err)
     code, _, err = run(capsys, "plot", CASE, "-o", str(tmp_path / "p.png"))
-    assert code == 2 and "this is an instance, not a result" in one_line_error(err)
+    assert code == 2 and "an instance, not a plan" in one_line_error(err)
     result.write_text("[1, 2]")
     code, _, err = run(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
     assert code == 2 and "result: must be a JSON object, got list" in one_line_error(err)
@@ -403,3 +403,19 @@ def test_a_progress_line_in_a_log_keeps_its_counts(capsys, tmp_path):
     '1000000/1…' (a review); it is now as wide as it needs."""
     code, _, err = run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "123456", "-o", str(tmp_path / "q.json"))
     assert code == 0 and "123456/123456" in err and "greedy plan" in err
+
+
+def test_plot_draws_a_plan_file_as_evaluate_reads_it(capsys, tmp_path):
+    """plot took only results; a plan file, or a submission of a plan with its instance and
+    objective (VoI-Lib's form), failed on a missing 'objective' or 'method' (a review)."""
+    plan = str(ROOT / "instances" / "case-study.plan.json")
+    code, _, err = run(capsys, "plot", plan, "-o", str(tmp_path / "p.png"))
+    assert code == 2 and "--instance: give the instance of this plan (it names none)" in one_line_error(err)
+    assert run(capsys, "plot", plan, "--instance", CASE, "-o", str(tmp_path / "p.png"))[0] == 0
+    assert (tmp_path / "p.png").stat().st_size > 5000
+    sub = tmp_path / "sub.json"
+    sub.write_text(json.dumps({"instance": "case-study", "objective": "max-aoi", "plan": CASE_STUDY_PLAN}))
+    assert run(capsys, "plot", str(sub), "-o", str(tmp_path / "s.png"))[0] == 0  # found by its name
+    sub.write_text(json.dumps({"instance": "elsewhere", "plan": CASE_STUDY_PLAN}))
+    code, _, err = run(capsys, "plot", str(sub), "--instance", CASE, "-o", str(tmp_path / "e.png"))
+    assert code == 2 and "the plan is for 'elsewhere', the instance is 'case-study'" in one_line_error(err)

@@ -254,15 +254,23 @@ def cmd_figures(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from voiopt.plots import check_figure_path, instance_for, plot_result
+    from voiopt.plots import check_figure_path, instance_for, plot_plan, plot_result
 
     check_figure_path(args.output)
     check_output_file(args.output)
-    result = voiopt.load_result(args.result)
+    d = read_json(args.result, error=VoioptError)
     try:
-        inst, where = instance_for(result, args.instance, args.result)
-        plot_result(result, inst, args.output, where)
-    except PlanError as e:  # the result's plan breaks a rule of its instance: name the file
+        if not isinstance(d, dict) or "status" in d:  # a result of voiopt solve (or not an object: said so)
+            result = voiopt.load_result(args.result)
+            inst, where = instance_for(result.instance, args.instance, args.result)
+            plot_result(result, inst, args.output, where)
+        else:  # a plan, or a plan with instance and objective (a VoI-Lib submission)
+            plan = plan_of(d, args.result)
+            name = d.get("instance") if isinstance(d.get("instance"), str) else None
+            objective = d.get("objective") if d.get("objective") in OBJECTIVES else DEFAULT
+            plot_plan(instance_for(name, args.instance, args.result, "plan")[0], plan, args.output,
+                      Path(args.result).name, objective)
+    except PlanError as e:  # the plan breaks a rule of its instance: name the file
         raise PlanError(f"{args.result}: {e}") from None
     out.print(f"wrote {args.output}", markup=False)
     return 0
@@ -404,8 +412,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_executor_options(s)
     s.add_argument("--quiet", action="store_true", help="print nothing but errors (the files are written all the same)")
 
-    s = _command(sub, "plot", "draw the trajectory of a result", cmd_plot)
-    s.add_argument("result", metavar="RESULT", help="a result JSON (voiopt solve -o)")
+    s = _command(sub, "plot", "draw the trajectory of a result or a plan", cmd_plot)
+    s.add_argument("result", metavar="RESULT", help="a result JSON (voiopt solve -o), or a plan JSON (with --instance, "
+                                                    "unless it names its instance)")
     s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: NAME.json beside the result, in the folder above it, or in ./instances")
     s.add_argument("-o", "--output", required=True, metavar="PNG", help="the image to write")
 

@@ -153,6 +153,16 @@ def plot_result(result: Result, instance: Instance, path: str | os.PathLike, whe
     save_figure(fig, path)
 
 
+def plot_plan(instance: Instance, plan: Plan | FleetPlan, path: str | os.PathLike, label: str,
+              objective: str = OBJECTIVE) -> None:
+    """``voiopt plot`` of a plan file (no result around it): its trajectory, with its simulated
+    ``objective`` in the title."""
+    value = simulate(instance, plan).metrics[objective]
+    fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
+    draw_plan(ax, instance, plan, f"{instance.name} — {label}, {objective} = {value:.4g}")
+    save_figure(fig, path)
+
+
 def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path, objective: str,
               about: str = "") -> None:
     """The gap report's figure: each method's proven gaps; ``about`` (networks, episodes, the
@@ -250,25 +260,30 @@ def case_study_figures(inst: Instance, results: dict[str, Result], out: Path) ->
     return [out / "fig3_case_study.png", out / "fig3_case_study.csv", out / "fig4_voi_over_time.png", out / "fig4_voi_over_time.csv"]
 
 
-def instance_for(result: Result, instance_path: str | None, result_path: str | None = None) -> tuple[Instance, str]:
-    """The instance a result belongs to, and where it was found: given, or the first NAME.json
-    beside the result file, in the folder above it, or in ./instances, or the built-in case
-    study."""
-    name = f"{result.instance}.json"
-    folders = [] if result_path is None else [Path(result_path).parent, Path(result_path).parent.parent]
-    found = None if instance_path else next(
-        (f / name for f in [*folders, Path("instances")]
-         if (f / name).is_file() and (result_path is None or not (f / name).samefile(result_path))), None)
+def instance_for(name: str | None, instance_path: str | None, file_path: str | None = None,
+                 what: str = "result") -> tuple[Instance, str]:
+    """The instance named ``name`` (a result's or a plan's ``instance``), and where it was
+    found: given, or the first NAME.json beside the file, in the folder above it, or in
+    ./instances, or the built-in case study."""
     if instance_path:
         inst, where = instance_mod.load(instance_path), str(instance_path)
-    elif found is not None:
+        if name is not None and inst.name != name:
+            raise OptionError(f"--instance: the {what} is for {name!r}, the instance is {inst.name!r}")
+        return inst, where
+    if name is None:
+        raise OptionError(f"--instance: give the instance of this {what} (it names none)")
+    file = f"{name}.json"
+    folders = [] if file_path is None else [Path(file_path).parent, Path(file_path).parent.parent]
+    found = next((f / file for f in [*folders, Path("instances")]
+                  if (f / file).is_file() and (file_path is None or not (f / file).samefile(file_path))), None)
+    if found is not None:
         inst, where = instance_mod.load(found), str(found)
-    elif result.instance == "case-study":
+    elif name == "case-study":
         inst, where = case_study(), "the built-in case study"
     else:
-        itself = result_path is not None and any((f / name).is_file() for f in folders)  # the result's own name
-        raise OptionError(f"--instance: give the instance of result {result.instance!r} (no {name} beside the result"
-                          f"{' but the result itself' if itself else ''}, in the folder above it or in ./instances)")
-    if inst.name != result.instance:
-        raise OptionError(f"--instance: the result is for {result.instance!r}, the instance is {inst.name!r}")
+        itself = file_path is not None and any((f / file).is_file() for f in folders)  # the file's own name
+        raise OptionError(f"--instance: give the instance of {what} {name!r} (no {file} beside the {what}"
+                          f"{f' but the {what} itself' if itself else ''}, in the folder above it or in ./instances)")
+    if inst.name != name:
+        raise OptionError(f"--instance: the {what} is for {name!r}, the instance is {inst.name!r}")
     return inst, where
