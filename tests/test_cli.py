@@ -154,6 +154,23 @@ def test_demo_prints_the_case_study_metrics(capsys):
     assert code == 0 and "case-study" in out and "mean-min-voi" in out
 
 
+def test_the_demo_merges_a_method_s_seeds_only_where_they_agree():
+    """As the README shows it: "aoi-qlearning (seed 0..2)" where every seed gave the same plan's
+    metrics, a row per seed where they differ."""
+    from voiopt.experiments.demo import _merged
+    from voiopt.result import Result
+
+    def res(v, t=1.0):
+        return Result("case-study", "qlearning", "mean-min-voi", "feasible", v, None, None, t, None,
+                      {"min-voi": 1.0, "mean-min-voi": v, "max-aoi": 3, "mean-max-aoi": 2.0})
+
+    rows = _merged([("dp", res(9.0)), ("qlearning (seed 0)", res(5.0)), ("qlearning (seed 1)", res(4.0)),
+                    ("aoi-qlearning (seed 0)", res(3.0, 0.5)), ("aoi-qlearning (seed 1)", res(3.0, 0.7))])
+    assert [(label, [r.runtime_s for r in runs]) for label, runs in rows] == [
+        ("dp", [1.0]), ("qlearning (seed 0)", [1.0]), ("qlearning (seed 1)", [1.0]),
+        ("aoi-qlearning (seed 0..1)", [0.5, 0.7])]
+
+
 def test_evaluate_and_warm_start_name_the_plan_file_and_refuse_another_instance_s_result(capsys, tmp_path):
     result = tmp_path / "case.json"
     assert run(capsys, "solve", CASE, "--method", "greedy", "--quiet", "-o", str(result))[0] == 0

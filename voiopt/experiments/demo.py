@@ -79,15 +79,35 @@ def _run_all(inst, console: Console, out_dir: Path, results: list[tuple[str, Res
             results.append((label if seed is None else f"{label} (seed {seed})", r))
 
 
+def _merged(results: list[tuple[str, Result]]) -> list[tuple[str, list[Result]]]:
+    """The table's rows: a randomised method's seeds in one row, "(seed 0..2)", when every seed
+    gave the same status and metrics; else a row per seed."""
+    groups: dict[str, list[tuple[str, Result]]] = {}
+    for label, r in results:
+        groups.setdefault(label.split(" (seed ")[0], []).append((label, r))
+    rows = []
+    for base, members in groups.items():
+        seeds = [label.split(" (seed ")[1].rstrip(")") for label, _ in members if " (seed " in label]
+        same = len({(r.status, tuple(sorted((r.metrics or {}).items()))) for _, r in members}) == 1
+        if len(seeds) > 1 and len(seeds) == len(members) and same:
+            rows.append((f"{base} (seed {seeds[0]}..{seeds[-1]})", [r for _, r in members]))
+        else:
+            rows += [(label, [r]) for label, r in members]
+    return rows
+
+
 def _report(inst, console: Console, out_dir: Path, results: list[tuple[str, Result]]) -> None:
     best_bound = objectives.tightest(OBJECTIVE, (r.bound for _, r in results))
     table = Table(title=f"{inst.name}: every value simulated from the plan; gap = proven distance to the optimum")
     for col in ("plan", "status", *OBJECTIVES, "gap", "time"):
         table.add_column(col, justify="left" if col in ("plan", "status") else "right")
-    for label, r in results:
+    for label, runs in _merged(results):
+        r = runs[0]
         gap = objectives.gap(r.value, best_bound)
+        times = sorted(x.runtime_s for x in runs)
         table.add_row(label, r.status, *(f"{r.metrics[m]:.6g}" for m in OBJECTIVES),
-                      "-" if gap is None else f"{100 * gap:.2f} %", f"{r.runtime_s:.2f} s")
+                      "-" if gap is None else f"{100 * gap:.2f} %",
+                      f"{times[0]:.2f} s" if len(runs) == 1 else f"{times[0]:.2f}-{times[-1]:.2f} s")
     console.print(table)
     if best_bound:
         for label, reading in (("qlearning", "V in bit/s, penalty 100: the paper as written"),
