@@ -227,6 +227,24 @@ def test_a_limit_stops_the_build_of_the_value_table_and_its_blocks_change_no_bit
         assert r.plan.positions[-1] == inst.end and r.metrics == voiopt.evaluate(inst, r.plan)
 
 
+def test_the_value_table_checks_the_stop_rule_after_every_block(monkeypatch):
+    """A block of W held 2^18 worths less a few, and the rule was checked once 2^18 had been
+    counted: after every second block (at T = 1633 on a busy machine, 1.7 s for a 0.3 s limit)."""
+    from voiopt import physics
+    from voiopt.solvers import _dp_shared
+    from voiopt.stop import Stop
+
+    inst = voiopt.generate(3, 40, seed=6, end="random")
+    monkeypatch.setattr(_dp_shared, "VOI_BLOCK", 1000)
+    since, most = [0], [0]
+    voi, check = physics.voi, Stop.check
+    monkeypatch.setattr(physics, "voi", lambda *a: (since.__setitem__(0, since[0] + np.size(a[0])), voi(*a))[1])
+    monkeypatch.setattr(Stop, "check", lambda self, *a: (most.__setitem__(0, max(most[0], since[0])),
+                                                         since.__setitem__(0, 0), check(self, *a))[2])
+    _dp_shared.build_tables(inst, "mean-min-voi", Stop())
+    assert 0 < max(most[0], since[0]) <= 1000
+
+
 def test_a_range_past_the_area_is_not_refused_as_too_large():
     """Any d_th past the area's diagonal gives the same network; the memory estimates counted
     (2 d_th / step + 2)^2 points in range, and refused the case study at d_th = 1000 (dp,
