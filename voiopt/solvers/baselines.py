@@ -182,39 +182,64 @@ def _lattice_graph(instance: Instance) -> nx.Graph:
 
 def _best_points_for_order(order, candidates, dist, start) -> tuple[float, list[int]]:
     """Exact DP: for a fixed sensor order, the in-range point of each sensor minimising the
-    closed walk start -> ... -> start. Returns (length, points in order)."""
-    cost = {start: (0.0, [])}
+    closed walk start -> ... -> start. Returns (length, points in order). Each step is one
+    array operation over the two sensors' points (``dist.leg``); ties go to the first point in
+    candidate order, as a minimum over them in turn would."""
+    back, cost, here = [], np.zeros(1), None  # None: the start
     for i in order:
-        new = {}
-        for q in candidates[i]:
-            length, pts = min(((c + dist[p][q], ps) for p, (c, ps) in cost.items()), key=lambda x: x[0])
-            new[q] = (length, [*pts, q])
-        cost = new
-    return min(((c + dist[p][start], ps) for p, (c, ps) in cost.items()), key=lambda x: x[0])
+        total = cost[:, None] + dist.leg(here, i)
+        arg = total.argmin(axis=0)
+        cost = total[arg, np.arange(total.shape[1])]
+        back.append(arg)
+        here = i
+    total = cost + dist.leg(here, None)[:, 0]
+    k = int(total.argmin())
+    length, pts = float(total[k]), []
+    for i, arg in zip(reversed(order), reversed(back), strict=True):
+        pts.append(candidates[i][k])
+        k = int(arg[k])
+    return length, pts[::-1]
 
 
 class _Moves:
     """dist[p][q]: the fewest moves between lattice points p and q, without a table of all
     pairs: Manhattan on an open lattice, and around blocked points a BFS row per point asked
-    (only the start and the sensors' in-range points are)."""
+    (only the start and the sensors' in-range points are). ``leg(a, b)``: the table of them
+    from sensor a's in-range points (None: the start) to sensor b's, made once per pair."""
 
-    def __init__(self, lat: lattice_mod.Lattice) -> None:
+    def __init__(self, lat: lattice_mod.Lattice, candidates: dict[int, list[int]] | None = None) -> None:
         self.lat = lat
         self.rows: dict[int, np.ndarray] = {}
+        self.points = {None: [lat.start], **(candidates or {})}
+        self.legs: dict[tuple, np.ndarray] = {}
 
     def __getitem__(self, p: int):
         if self.lat.has_blocked:
             if p not in self.rows:
                 self.rows[p] = self.lat.steps_from(p)
             return self.rows[p]
-        row = self.lat.coords[p]
-        coords = self.lat.coords
+        return _ManhattanRow(self.lat.coords, p)
 
-        class _Row:
-            def __getitem__(self, q: int) -> int:
-                return int(abs(coords[q, 0] - row[0]) + abs(coords[q, 1] - row[1]))
+    def leg(self, a, b) -> np.ndarray:
+        if (a, b) not in self.legs:
+            src, dst = self.points[a], np.asarray(self.points[b])
+            if self.lat.has_blocked:
+                table = np.array([self[p][dst] for p in src], dtype=float)
+            else:
+                c = self.lat.coords
+                table = np.abs(c[src][:, None, :] - c[dst][None, :, :]).sum(axis=2).astype(float)
+            self.legs[a, b] = table.reshape(len(src), len(dst))
+        return self.legs[a, b]
 
-        return _Row()
+
+class _ManhattanRow:
+    """The fewest moves from point p to any point q of an open lattice."""
+
+    def __init__(self, coords: np.ndarray, p: int) -> None:
+        self.coords, self.row = coords, coords[p]
+
+    def __getitem__(self, q: int) -> int:
+        return int(abs(self.coords[q, 0] - self.row[0]) + abs(self.coords[q, 1] - self.row[1]))
 
 
 HEURISTIC_TOUR_MAX_SENSORS = 200  # simulated annealing up to here; nearest neighbour above
@@ -229,7 +254,7 @@ def _tour(instance: Instance, stop: Stop, seed: int, sensors: list[int] | None =
     among = range(instance.n_sensors) if sensors is None else sensors
     servable = [i for i in among if (lat.in_range[i] & reach).any()]
     candidates = {i: np.flatnonzero(lat.in_range[i] & reach).tolist() for i in servable}
-    dist = _Moves(lat)
+    dist = _Moves(lat, candidates)
     info = {"unservable_sensors": [i for i in among if i not in servable]}
     if len(servable) <= EXACT_TOUR_MAX_SENSORS:
         best = (math.inf, [])
