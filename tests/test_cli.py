@@ -253,7 +253,9 @@ def test_the_default_method_is_dp_and_milp_for_three_robots(capsys, tmp_path):
     (["gap-report", CASE, "--methods", "qlearning", "--episodes", "1e100", "-o", "{tmp}/r"],
      "--episodes: must be an integer from 1 to 1e+12, got 1e+100"),  # not a folder of failed runs
     (["solve", CASE, "--method", "qlearning", "--episodes", "1e13", "-o", "{tmp}/r.json"],
-     "episodes: must be an integer from 1 to 1e+12, got 1e+13"),
+     "episodes: must be an integer from 1 to 1e+12, got 10000000000000"),
+    (["solve", CASE, "--method", "qlearning", "--episodes", "1000000000001", "-o", "{tmp}/r.json"],
+     "episodes: must be an integer from 1 to 1e+12, got 1000000000001"),
 ])
 def test_bad_options_and_outputs_are_one_line_before_any_work(capsys, tmp_path, argv, says):
     (tmp_path / "a-file").write_text("x")
@@ -314,7 +316,8 @@ def test_plot_names_the_file_of_a_result_it_cannot_read(capsys, tmp_path):
         code, _, err = run(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
         assert code == 2 and f"{result}: objective: unknown objective" in one_line_error(err)
     code, _, err = run(capsys, "plot", CASE, "-o", str(tmp_path / "p.png"))
-    assert code == 2 and "an instance, not a plan" in one_line_error(err)
+    assert code == 2 and one_line_error(err) == f"voiopt: error: {CASE}: an instance, not a plan " \
+                                                "({positions, schedule}) or a result JSON"  # the file named once
     result.write_text("[1, 2]")
     code, _, err = run(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
     assert code == 2 and "result: must be a JSON object, got list" in one_line_error(err)
@@ -393,6 +396,14 @@ def test_plot_refuses_a_result_that_its_instance_does_not_give(capsys, tmp_path,
     (tmp_path / "f.json").write_text(json.dumps(forged))
     code, _, err = run(capsys, "plot", "f.json", "--instance", "in/rho.json", "-o", "f.png")
     assert code == 2 and "mean-min-voi" in one_line_error(err) and "stored" in err
+    code, _, err = run(capsys, "evaluate", "in/rho.json", "f.json")  # the value alone forged: noted too
+    assert code == 0 and "note: f.json says otherwise (mean-min-voi" in err
+    forged["metrics"]["max-aoi"] = 10**400  # a JSON integer too large for a float: no traceback
+    (tmp_path / "f.json").write_text(json.dumps(forged))
+    code, _, err = run(capsys, "evaluate", "in/rho.json", "f.json")
+    assert code == 0 and "note: f.json says otherwise (max-aoi an integer of 401 digits" in err and "Traceback" not in err
+    code, _, err = run(capsys, "plot", "f.json", "--instance", "in/rho.json", "-o", "f.png")
+    assert code == 2 and "max-aoi an integer of 401 digits stored" in one_line_error(err)
 
 
 def test_a_command_stopped_as_a_whole_says_whether_it_kept_results(capsys, monkeypatch, tmp_path):
@@ -433,6 +444,10 @@ def test_plot_draws_a_plan_file_as_evaluate_reads_it(capsys, tmp_path):
     sub = tmp_path / "sub.json"
     sub.write_text(json.dumps({"instance": "case-study", "objective": "max-aoi", "plan": CASE_STUDY_PLAN}))
     assert run(capsys, "plot", str(sub), "-o", str(tmp_path / "s.png"))[0] == 0  # found by its name
+    sub.write_text(json.dumps({"instance": "case-study", "objective": "best", "plan": CASE_STUDY_PLAN}))
+    code, _, err = run(capsys, "plot", str(sub), "-o", str(tmp_path / "b.png"))
+    assert code == 2 and one_line_error(err).endswith(f'{sub}: objective: must be one of min-voi, mean-min-voi, '
+                                                      'max-aoi, mean-max-aoi, got "best"')
     sub.write_text(json.dumps({"instance": "elsewhere", "plan": CASE_STUDY_PLAN}))
     code, _, err = run(capsys, "plot", str(sub), "--instance", CASE, "-o", str(tmp_path / "e.png"))
     assert code == 2 and "the plan is for 'elsewhere', the instance is 'case-study'" in one_line_error(err)

@@ -282,22 +282,23 @@ def _alive_by_brute_force(nx, ny, blocked, ends, budgets, horizon):
 def test_the_alive_table_matches_brute_force_in_every_slot(data):
     """The table of joint states that can still keep every rule, read slot by slot through
     ``row`` (it stores only the slots after the last one equal to its successor), is exactly
-    the plain recursion over joint moves, for two robots with ends, budgets and blocked points."""
+    the plain recursion over joint moves, for two and three robots with ends, budgets and
+    blocked points."""
     import numpy as np
 
     from voiopt import _grid, joint
 
+    K = data.draw(st.sampled_from([2, 2, 3]))
     nx, ny = data.draw(st.integers(1, 3)), data.draw(st.integers(2, 3))
     cells = [(k, l) for k in range(nx) for l in range(ny)]
     blocked = data.draw(st.sets(st.sampled_from(cells), max_size=2))
     free = [c for c in cells if c not in blocked]
-    if len(free) < 2:
+    if len(free) < K:
         return
-    ends = [data.draw(st.one_of(st.none(), st.sampled_from(free))) for _ in range(2)]
-    if ends[0] is not None and ends[0] == ends[1]:
-        ends[1] = None
-    T = data.draw(st.integers(1, 9))
-    budgets = [data.draw(st.one_of(st.none(), st.integers(0, 4))) for _ in range(2)]
+    ends = [data.draw(st.one_of(st.none(), st.sampled_from(free))) for _ in range(K)]
+    ends = [e if e not in ends[:k] else None for k, e in enumerate(ends)]  # distinct ends
+    T = data.draw(st.integers(1, 9 if K == 2 else 6))
+    budgets = [data.draw(st.one_of(st.none(), st.integers(0, 4 if K == 2 else 2))) for _ in range(K)]
     mask = np.zeros(nx * ny, dtype=bool)
     for k, l in blocked:
         mask[k * ny + l] = True
@@ -305,8 +306,9 @@ def test_the_alive_table_matches_brute_force_in_every_slot(data):
     bud, counted, radix = joint.budgets(budgets, T)
     want = _alive_by_brute_force(nx, ny, blocked, ends, [int(b) if c else None for b, c in zip(bud, counted, strict=True)], T)
     for (t, pts, made), alive in want.items():
-        c = pts[0] * nx * ny + pts[1]
-        m = made[0] * radix[1] + made[1]
+        c = m = 0
+        for k in range(K):  # robot 0 most significant
+            c, m = c * nx * ny + pts[k], m * radix[k] + made[k]
         assert bool(tab.row(t)[c, m]) == alive, (t, pts, made)
 
 
@@ -323,7 +325,7 @@ def test_the_alive_table_stores_only_the_slots_that_differ(monkeypatch):
     args = (nb, [0, 8, 2], [3, None, 4], 600)
     tab = joint.table(*args)
     assert tab.first > 0 and len(tab.alive) + tab.first == 600 and len(tab.alive) < 20
-    assert (tab.row(0) == tab.row(tab.first)).all() and not (tab.row(tab.first) == tab.row(599)).all()
+    assert not (tab.row(tab.first) == tab.row(tab.first + 1)).all()  # no stored slot repeats its successor
     path = joint.walk(tab, [6, 4, 1])  # a legal plan through the stored slots
     assert path.shape == (3, 600) and list(path[:, -1][:2]) == [0, 8]
     with pytest.raises(Stopped) as e:  # a limit smaller than the stored slots stops the build

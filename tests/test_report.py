@@ -261,3 +261,15 @@ def test_a_report_with_no_exact_method_says_there_is_no_gap(tmp_path, nets):
     line = next(line for line in summary.splitlines() if line.startswith("| greedy |"))
     cells = [c.strip() for c in line.strip("|").split("|")]
     assert cells[7:12] == ["-"] * 5 and "No method proved a bound" in summary
+
+
+def test_the_reading_of_v_is_given_only_where_the_reward_has_v():
+    """aoi-qlearning's reward is the age alone: its rows read no reward_units (they read bit/s)."""
+    from voiopt.result import Result
+
+    def res(method, reward):
+        return Result("n", method, "mean-min-voi", "feasible", 1.0, None, None, 0.1, None,
+                      {"mean-min-voi": 1.0}, {"reward": reward, "reward_units": "bit/s"})
+
+    rows = report.gap_rows([res("qlearning", "voi"), res("aoi-qlearning", "aoi")], "mean-min-voi", [0, 0])
+    assert [r["reward_units"] for r in rows] == ["bit/s", ""]

@@ -103,12 +103,16 @@ def test_score_rejects_a_forged_value():
         voilib.score(sub)
 
 
-@pytest.mark.parametrize("stated", ["1e400", "-1e400"])
+@pytest.mark.parametrize("stated", ["1e400", "-1e400", "1" + "0" * 400])
 def test_score_rejects_a_value_that_is_not_finite(tmp_path, capsys, stated):
     """1e400 reads as infinity, and |inf - value| <= 1e-9 * inf held: a review scored it."""
     sub = _submission("paper-n4-t30-000", "mean-min-voi")
     path = tmp_path / "inf.json"
     path.write_text(json.dumps({**sub, "value": 0.5}).replace('"value": 0.5', f'"value": {stated}'))
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(sub))
+    code, out, err = run(capsys, "bench", "score", str(path), str(good))  # the good one still scored
+    assert code == 2 and "value: must be a finite number" in one_line_error(err) and "paper-n4-t30-000" in out
     code, _, err = run(capsys, "bench", "score", str(path))
     assert code == 2 and "value: must be a finite number" in one_line_error(err)
 

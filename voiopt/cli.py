@@ -20,6 +20,7 @@ from voiopt.cli_bench import add_commands as add_bench_commands
 from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
+from voiopt.instance import show
 from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
 from voiopt.plan import plan_of
@@ -112,7 +113,11 @@ def cmd_evaluate(args) -> int:
         metrics = voiopt.evaluate(inst, plan)
     except PlanError as e:  # the plan breaks a rule of this instance: name the plan's file
         raise PlanError(f"{args.plan}: {e}") from None
-    differ = disagreement(d.get("metrics"), metrics) if isinstance(d, dict) else None
+    differ = None
+    if isinstance(d, dict) and "plan" in d:  # a result (or a submission): its own metrics and value
+        differ = disagreement(d.get("metrics"), metrics) or (
+            disagreement({d["objective"]: d.get("value")}, metrics) if d.get("objective") in OBJECTIVES
+            and d.get("value") is not None else None)
     if differ:  # a result's own metrics: solved on another instance, or edited
         err.print(f"note: {args.plan} says otherwise ({differ}): it was solved on another instance than "
                   f"{args.instance}, or edited", markup=False)
@@ -259,17 +264,20 @@ def cmd_plot(args) -> int:
     check_figure_path(args.output)
     check_output_file(args.output)
     d = read_json(args.result, error=VoioptError)
+    if not isinstance(d, dict) or "status" in d:  # a result of voiopt solve (or not an object: said so)
+        result = voiopt.load_result(args.result)
+        inst, where = instance_for(result.instance, args.instance, args.result)
+        draw = lambda: plot_result(result, inst, args.output, where)  # noqa: E731
+    else:  # a plan, or a plan with instance and objective (a VoI-Lib submission)
+        plan = plan_of(d, args.result)  # its errors name the file
+        name = d.get("instance") if isinstance(d.get("instance"), str) else None
+        objective = d.get("objective", DEFAULT)
+        if objective not in OBJECTIVES:
+            raise OptionError(f"{args.result}: objective: must be one of {', '.join(OBJECTIVES)}, got {show(objective)}")
+        inst = instance_for(name, args.instance, args.result, "plan")[0]
+        draw = lambda: plot_plan(inst, plan, args.output, Path(args.result).name, objective)  # noqa: E731
     try:
-        if not isinstance(d, dict) or "status" in d:  # a result of voiopt solve (or not an object: said so)
-            result = voiopt.load_result(args.result)
-            inst, where = instance_for(result.instance, args.instance, args.result)
-            plot_result(result, inst, args.output, where)
-        else:  # a plan, or a plan with instance and objective (a VoI-Lib submission)
-            plan = plan_of(d, args.result)
-            name = d.get("instance") if isinstance(d.get("instance"), str) else None
-            objective = d.get("objective") if d.get("objective") in OBJECTIVES else DEFAULT
-            plot_plan(instance_for(name, args.instance, args.result, "plan")[0], plan, args.output,
-                      Path(args.result).name, objective)
+        draw()
     except PlanError as e:  # the plan breaks a rule of its instance: name the file
         raise PlanError(f"{args.result}: {e}") from None
     out.print(f"wrote {args.output}", markup=False)

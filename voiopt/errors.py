@@ -43,7 +43,8 @@ def check_episodes(episodes, name: str = "episodes") -> None:
     except (AttributeError, TypeError):
         n = None
     if n is None or not 1 <= n <= MAX_EPISODES:
-        got = f"{float(n):.3g}" if n is not None and n > MAX_EPISODES else repr(episodes)
+        big = n is not None and n > MAX_EPISODES and len(str(n)) > 20  # a hundred digits say no more than 1e+100
+        got = f"{float(n):.3g}" if big else repr(n if n is not None else episodes)
         raise OptionError(f"{name}: must be an integer from 1 to {MAX_EPISODES:.0e}, got {got}")
 
 

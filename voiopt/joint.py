@@ -162,10 +162,9 @@ def _alive_backwards(last, within, nxt_cfg, moved, counted, budgets, strides, mv
     memory limit counts the slots stored and ``held`` bytes) between them: two robots on a
     21 x 21 factory floor with ends took 8 s, past any time limit.
 
-    Staying is always a legal joint move once the robots stand legally, so a slot's alive set
-    holds the next slot's; and the step from one slot to the one before does not depend on the
-    slot. So once a slot equals the next one, every earlier slot equals it too, and is not
-    stored: three robots with budgets at T = 589 once filled 3.2 GB with copies of one slot."""
+    The step from one slot to the one before does not depend on the slot. So once a slot equals
+    the next one, every earlier slot equals it too, and is not stored: three robots with budgets
+    at T = 589 once filled 3.2 GB with copies of one slot."""
     rows = [last]  # slots T-1, T-2, ... down to the first stored one
     for _ in range(horizon - 1):
         here = np.zeros_like(last)

@@ -17,7 +17,7 @@ import numpy as np
 from voiopt import objectives
 from voiopt._files import read_json, write_json_atomic
 from voiopt.errors import VoioptError
-from voiopt.instance import Instance
+from voiopt.instance import Instance, show
 from voiopt.objectives import TINY, check_objective
 from voiopt.plan import Plan
 from voiopt.simulate import simulate
@@ -149,10 +149,18 @@ def disagreement(stored: Any, metrics: dict[str, float]) -> str | None:
         if name not in stored:
             continue
         s = stored[name]
-        if isinstance(s, bool) or not isinstance(s, (int, float)) or not (
+        if isinstance(s, bool) or not isinstance(s, (int, float)) or not finite(s) or not (
                 abs(s - v) <= STORED_RTOL * max(abs(s), abs(v), TINY)):
-            return f"{name} {s!r} stored, {v!r} simulated"
+            return f"{name} {show(s)} stored, {v!r} simulated"
     return None
+
+
+def finite(x: float) -> bool:
+    """A finite float, also for a JSON integer too large for one (10**400: float() overflows)."""
+    try:
+        return math.isfinite(x)
+    except OverflowError:
+        return False
 
 
 def _clean(v: float | None) -> float | None:

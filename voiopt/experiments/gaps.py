@@ -66,7 +66,8 @@ def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | No
             "instance": r.instance, "method": r.method, "seed": seed, "objective": r.objective, "status": r.status,
             "value": r.value, "bound": r.bound, "best_value": best_value, "best_bound": best_bound,
             "gap": gap, "runtime_s": r.runtime_s, "cause": cause(r),
-            "reward_units": r.solver.get("reward_units", ""),  # Q-learning's reading of the reward (MODEL.md section 7)
+            # Q-learning's reading of V in its reward (MODEL.md section 7); the AoI reward has no V
+            "reward_units": r.solver.get("reward_units", "") if r.solver.get("reward") != "aoi" else "",
         })
     return rows
 

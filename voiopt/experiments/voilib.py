@@ -14,7 +14,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import os
 from importlib import resources
 from pathlib import Path
@@ -34,7 +33,7 @@ from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance, show
 from voiopt.objectives import OBJECTIVES, best, check_objective, gap, tightest
 from voiopt.plan import Plan
-from voiopt.result import OPTIMAL_RTOL, Result
+from voiopt.result import OPTIMAL_RTOL, Result, finite
 from voiopt.simulate import simulate
 
 VERSION = "1"  # a certificate changes only with a new version of the library
@@ -222,7 +221,7 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
         raise OptionError(f"{source}: plan: is required")
     stated = result.get("value")
     if stated is not None and (isinstance(stated, bool) or not isinstance(stated, (int, float))
-                               or not math.isfinite(stated)):
+                               or not finite(stated)):
         raise OptionError(f"{source}: value: must be a finite number (or absent), got {show(stated)}")
     value = simulate(inst, Plan.from_dict(result["plan"])).metrics[objective]
     if stated is not None:

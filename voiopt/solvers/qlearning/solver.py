@@ -130,7 +130,9 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
 
             return stopped_result(instance, method, objective, stop, {**settings, "episodes_run": 0},
                                   "stopped while building the MDP's tables")
-        table = QTable(model, q_init, stop.memory_bytes, slots=slots)
+        held = float(getattr(model, "alive", np.empty(0)).nbytes)  # a fleet's joint mask counts against the limit too
+        table = QTable(model, q_init, None if stop.memory_bytes is None else max(stop.memory_bytes - held, 1.0),
+                       slots=slots)
         eps = np.array([1.0])
         eps0 = settings["epsilon0"]
         rng = np.array([seed_state(seed)], dtype=np.uint64)
