@@ -267,23 +267,26 @@ def instance_for(name: str | None, instance_path: str | None, file_path: str | N
     ./instances, or the built-in case study."""
     if instance_path:
         inst, where = instance_mod.load(instance_path), str(instance_path)
-        if name is not None and inst.name != name:
-            raise OptionError(f"--instance: the {what} is for {name!r}, the instance is {inst.name!r}")
-        return inst, where
-    if name is None:
+    elif name is None:
         raise OptionError(f"--instance: give the instance of this {what} (it names none)")
+    else:
+        inst, where = _named_instance(name, file_path, what)
+    if name is not None and inst.name != name:
+        raise OptionError(f"--instance: the {what} is for {name!r}, the instance is {inst.name!r}")
+    return inst, where
+
+
+def _named_instance(name: str, file_path: str | None, what: str) -> tuple[Instance, str]:
+    """``instance_for`` without --instance: NAME.json beside the file, in the folder above it, in
+    ./instances, or the built-in case study."""
     file = f"{name}.json"
     folders = [] if file_path is None else [Path(file_path).parent, Path(file_path).parent.parent]
     found = next((f / file for f in [*folders, Path("instances")]
                   if (f / file).is_file() and (file_path is None or not (f / file).samefile(file_path))), None)
     if found is not None:
-        inst, where = instance_mod.load(found), str(found)
-    elif name == "case-study":
-        inst, where = case_study(), "the built-in case study"
-    else:
-        itself = file_path is not None and any((f / file).is_file() for f in folders)  # the file's own name
-        raise OptionError(f"--instance: give the instance of {what} {name!r} (no {file} beside the {what}"
-                          f"{f' but the {what} itself' if itself else ''}, in the folder above it or in ./instances)")
-    if inst.name != name:
-        raise OptionError(f"--instance: the {what} is for {name!r}, the instance is {inst.name!r}")
-    return inst, where
+        return instance_mod.load(found), str(found)
+    if name == "case-study":
+        return case_study(), "the built-in case study"
+    itself = file_path is not None and any((f / file).is_file() for f in folders)  # the file's own name
+    raise OptionError(f"--instance: give the instance of {what} {name!r} (no {file} beside the {what}"
+                      f"{f' but the {what} itself' if itself else ''}, in the folder above it or in ./instances)")

@@ -135,7 +135,14 @@ def load_result(path: str | os.PathLike) -> Result:
         raise VoioptError(f"{path}: {e}") from None
 
 
-STORED_RTOL = 1e-9  # a result file's stored metrics against its plan re-simulated (the same simulator: equal bits)
+STORED_RTOL = 1e-9  # a number stored in a file (a result's, a submission's) against its plan re-simulated
+
+
+def agrees(stored: Any, simulated: float) -> bool:
+    """Whether a number a file states for its plan is what the simulator gives: a finite number
+    within a relative STORED_RTOL of it (rounding only; the same simulator gives equal bits)."""
+    return (not isinstance(stored, bool) and isinstance(stored, (int, float)) and finite(stored)
+            and abs(stored - simulated) <= STORED_RTOL * max(abs(stored), abs(simulated), TINY))
 
 
 def disagreement(stored: Any, metrics: dict[str, float]) -> str | None:
@@ -146,12 +153,8 @@ def disagreement(stored: Any, metrics: dict[str, float]) -> str | None:
     if not isinstance(stored, dict):
         return None
     for name, v in metrics.items():
-        if name not in stored:
-            continue
-        s = stored[name]
-        if isinstance(s, bool) or not isinstance(s, (int, float)) or not finite(s) or not (
-                abs(s - v) <= STORED_RTOL * max(abs(s), abs(v), TINY)):
-            return f"{name} {show(s)} stored, {v!r} simulated"
+        if name in stored and not agrees(stored[name], v):
+            return f"{name} {show(stored[name])} stored, {v!r} simulated"
     return None
 
 

@@ -33,13 +33,12 @@ from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance, show
 from voiopt.objectives import OBJECTIVES, best, check_objective, gap, tightest
 from voiopt.plan import Plan
-from voiopt.result import OPTIMAL_RTOL, Result, finite
+from voiopt.result import OPTIMAL_RTOL, Result, agrees, finite
 from voiopt.simulate import simulate
 
 VERSION = "1"  # a certificate changes only with a new version of the library
 DATA = resources.files("voiopt") / "data" / "voilib"
 CERTIFYING_METHODS = ("dp", "milp")
-VALUE_RTOL = 1e-9  # a submitted value and its re-simulation may differ by rounding only
 
 # The ladder of version 1: (group, count, what generates it). Names are group-k.
 LADDER: list[tuple[str, int, dict[str, Any]]] = [
@@ -225,7 +224,7 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
         raise OptionError(f"{source}: value: must be a finite number (or absent), got {show(stated)}")
     value = simulate(inst, Plan.from_dict(result["plan"])).metrics[objective]
     if stated is not None:
-        if not abs(stated - value) <= VALUE_RTOL * max(abs(stated), abs(value), 1e-300):
+        if not agrees(stated, value):
             by_name = "" if result.get("instance_sha256") is not None else (
                 "; was it solved on another instance of that name? (instance_sha256, from certificates.json, "
                 "names the instance exactly)")

@@ -119,4 +119,3 @@ def idle_plan(instance: Instance) -> Plan:
     lat = lattice_mod.build(instance)
     T = instance.horizon
     return Plan.from_indices(instance, [lat.start, *lat.walk_home(lat.start, T - 1)], np.full(T, -1))
-
