@@ -39,8 +39,12 @@ class PickInstance(gym.Wrapper):
 
 
 def main() -> int:
-    from sb3_contrib import MaskablePPO
-    from sb3_contrib.common.wrappers import ActionMasker
+    try:
+        from sb3_contrib import MaskablePPO
+        from sb3_contrib.common.wrappers import ActionMasker
+    except ImportError:  # the example's own extra: one line, not a traceback
+        raise SystemExit("maskable_ppo.py needs sb3-contrib and torch: pip install -e '.[rl,sb3]' "
+                         "(see the top of this file)") from None
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=int, default=100_000, help="training steps (default 100000)")

@@ -134,3 +134,46 @@ def test_rgb_render_is_an_image(case_study):
     img = env.render()
     assert img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3
     assert (img == [220, 40, 40]).all(axis=2).any()  # the entity is drawn
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(sample={"sensors": 6}), "sample: unknown key 'sensors' (allowed: n_sensors, "),
+    (dict(sample=[4]), "sample: must be a dict"),
+    (dict(reward="aoi", reward_mode="normalised"), "with reward='aoi' use reward_mode='paper'"),
+    (dict(penalty=float("nan")), "penalty: must be a finite number, got nan"),
+    (dict(penalty=float("inf")), "penalty: must be a finite number, got inf"),
+    (dict(penalty="100"), "penalty: must be a finite number, got '100'"),
+])
+def test_options_that_would_be_ignored_or_poison_the_rewards_are_refused(kwargs, message):
+    with pytest.raises(OptionError) as e:
+        voienv.VoIEnv(**kwargs)
+    assert message in str(e.value)
+
+
+def test_an_action_is_an_integer_not_anything_int_accepts(case_study):
+    env = voienv.VoIEnv(case_study)
+    env.reset()
+    for bad in (0.7, "3", True, np.float64(5.0)):
+        with pytest.raises(OptionError, match="action: must be an integer in 0..19"):
+            env.step(bad)
+    for good in (np.int64(0), np.array(0), np.array([0])):  # what agents pass
+        env.reset()
+        env.step(good)
+
+
+def test_the_normalised_reward_on_an_open_certificate_is_refused_not_solved_for_ever():
+    from voiopt.experiments import voilib
+
+    inst = voilib.instances()["factory-n12-t100-000"]  # mean-min-voi open in VoI-Lib 1
+    env = voienv.VoIEnv(inst, reward_mode="normalised")
+    env.reset()
+    with pytest.raises(OptionError, match="certificate of factory-n12-t100-000 is open"):
+        env.step(int(np.flatnonzero(env.action_masks())[0]))
+
+
+def test_no_action_is_legal_once_the_episode_has_ended(case_study):
+    env = voienv.VoIEnv(case_study)
+    env.reset()
+    for _ in range(case_study.horizon):
+        *_, info = env.step(int(np.flatnonzero(env.action_masks())[0]))
+    assert not info["action_mask"].any() and not env.action_masks().any()

@@ -136,6 +136,17 @@ def test_a_result_solved_on_an_edited_copy_is_told_so():
         voilib.score(r)
 
 
+def test_the_gap_to_the_best_known_value_is_negative_for_a_better_plan():
+    """A plan better than the best known one (possible where a certificate is open) must not
+    read as a plan behind it: |best - value| alone has no sign."""
+    assert voilib.behind("mean-min-voi", 11.0, 10.0) == pytest.approx(-0.1)
+    assert voilib.behind("mean-min-voi", 9.0, 10.0) == pytest.approx(0.1)
+    assert voilib.behind("max-aoi", 9.0, 10.0) == pytest.approx(-0.1)
+    assert voilib.behind("mean-max-aoi", 11.0, 10.0) == pytest.approx(0.1)
+    sub = _submission("paper-n4-t30-000", "mean-min-voi")
+    assert voilib.score(sub)["gap_to_best"] >= 0
+
+
 def test_score_needs_an_objective_but_no_value():
     sub = _submission("paper-n4-t30-000", "mean-min-voi")
     unstated = {k: v for k, v in sub.items() if k != "value"}
@@ -202,6 +213,14 @@ def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys)
     ({"objective": "max-aoi", "plan": case_study_plan().to_dict()}, "instance: is required"),
     (case_study().to_dict(), "an instance, not a result"),
     ({"version": 1, "instances": {}}, "a certificates file, not a result"),
+    ({"instance": "case-study", "objective": ["max-aoi"], "plan": {}}, 'objective: must be one of'),
+    ({"instance": "case-study", "objective": {"a": 1}, "plan": {}}, 'got {"a": 1}'),
+    ({"instance": "case-study", "objective": "max-aoi", "plan": {"schedule": []}}, "plan.positions: is required"),
+    ({"instance": "case-study", "objective": "max-aoi", "plan": {**case_study_plan().to_dict(), "speed": 1}},
+     "plan.speed: unknown field"),
+    ({"instance": "paper-n4-t30-000", "objective": "max-aoi", "plan": case_study_plan().to_dict(),
+      "instance_sha256": voilib.instance_hash(case_study())},
+     '"paper-n4-t30-000" is not the instance its instance_sha256 names (case-study)'),
 ])
 def test_hostile_submissions_are_one_line_errors_naming_the_file(capsys, tmp_path, doc, message):
     path = tmp_path / "sub.json"

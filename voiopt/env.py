@@ -34,6 +34,7 @@ the joint action, Discrete(((N + 1) * 5) ** K), with an exact mask of the legal 
 
 from __future__ import annotations
 
+import inspect
 import math
 from typing import Any
 
@@ -62,6 +63,19 @@ INFEASIBLE = ("raise", "penalise")
 _OPTIMA: dict[Instance, float] = {}  # the normalising optimum of each instance met in this process
 
 
+def _check_sample(sample: Any) -> dict:
+    """The keyword arguments of voiopt.generate for sampled networks (without ``seed``)."""
+    if sample is None:
+        return {}
+    allowed = [k for k in inspect.signature(generate_network).parameters if k != "seed"]
+    if not isinstance(sample, dict):
+        raise OptionError(f"sample: must be a dict of voiopt.generate's arguments, got {sample!r}")
+    unknown = [k for k in sample if k not in allowed]
+    if unknown:
+        raise OptionError(f"sample: unknown key {unknown[0]!r} (allowed: {', '.join(allowed)})")
+    return sample
+
+
 class VoIEnv(gym.Env):
     """The entity's slot-by-slot decision (upload, move) with the paper's reward."""
 
@@ -74,12 +88,15 @@ class VoIEnv(gym.Env):
             raise OptionError(f"render_mode: must be 'ansi' or 'rgb_array', got {render_mode!r}")
         if reward_mode not in REWARD_MODES:
             raise OptionError(f"reward_mode: must be 'paper' or 'normalised', got {reward_mode!r}")
+        if reward_mode == "normalised" and reward != "voi":
+            raise OptionError(f"reward_mode: 'normalised' divides the VoI reward by the mean-min-voi optimum; "
+                              f"with reward={reward!r} use reward_mode='paper'")
         if infeasible not in INFEASIBLE:
             raise OptionError(f"infeasible: must be 'raise' or 'penalise', got {infeasible!r}")
         self.render_mode = render_mode
         self.options = dict(reward=reward, penalty=penalty, reward_units=reward_units)
         self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
-        self.sample = None if instance is not None else {**SAMPLE, **(sample or {})}
+        self.sample = None if instance is not None else {**SAMPLE, **_check_sample(sample)}
         self._load(instance if instance is not None else generate_network(seed=0, **self.sample))
         lat, N, K = self.lattice, self.instance.n_sensors, self.instance.n_robots
         box = lambda *shape: spaces.Box(0.0, 1.0, shape=shape, dtype=np.float32)  # noqa: E731
@@ -125,7 +142,17 @@ class VoIEnv(gym.Env):
 
             if self.instance not in _OPTIMA:
                 cert = voilib.certified(self.instance, "mean-min-voi")
-                _OPTIMA[self.instance] = cert if cert is not None else dp.solve(self.instance, "mean-min-voi").value
+                if cert is None and voilib.open_certificate(self.instance, "mean-min-voi") is not None:
+                    raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and VoI-Lib's mean-min-voi "
+                                      f"certificate of {self.instance.name} is open "
+                                      f"({voilib.open_certificate(self.instance, 'mean-min-voi')}); use 'paper'")
+                if cert is None:
+                    result = dp.solve(self.instance, "mean-min-voi", progress=True)
+                    if result.status != "optimal":
+                        raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and dp stopped on "
+                                          f"{self.instance.name} ({result.status}); use 'paper'")
+                    cert = result.value
+                _OPTIMA[self.instance] = cert
             self._optimum = _OPTIMA[self.instance]
         return self._optimum
 
@@ -163,15 +190,19 @@ class VoIEnv(gym.Env):
         """Bool mask over the Discrete actions (sb3-contrib's MaskablePPO calls this)."""
         local = self._local[self.state[0]]
         mask = local >= 0
-        if self.t < self.instance.horizon:
-            mask[mask] = self.model.feasible(self.state, self.t)[local[mask]]
+        if self.t >= self.instance.horizon:  # the episode has ended: no action (as a fleet's)
+            return np.zeros_like(mask)
+        mask[mask] = self.model.feasible(self.state, self.t)[local[mask]]
         return mask
 
     action_mask = action_masks
 
     def _check_action(self, action) -> int:
         """The action as an int; raises if it is outside the space or the episode has ended."""
-        a = int(action)
+        whole = action.item() if isinstance(action, np.ndarray) and action.size == 1 else action
+        if isinstance(whole, bool) or not isinstance(whole, (int, np.integer)):  # 0.7 is not action 0
+            raise OptionError(f"action: must be an integer in 0..{self.action_space.n - 1}, got {action!r}")
+        a = int(whole)
         if not 0 <= a < self.action_space.n:
             raise OptionError(f"action: must be in 0..{self.action_space.n - 1}, got {action!r}")
         if self.t >= self.instance.horizon:
@@ -184,7 +215,8 @@ class VoIEnv(gym.Env):
         mask = self.action_masks()
         feasible = bool(mask[a])
         if not feasible and self.infeasible == "raise":
-            raise OptionError(f"action {a} (upload {a // 5 - 1 if a >= 5 else 'none'}, move {a % 5}) is infeasible in "
+            raise OptionError(f"action {a} ({f'upload sensor {a // 5 - 1}' if a >= 5 else 'no upload'}, move {a % 5}) "
+                              f"is infeasible in "
                               f"slot {self.t} (see action_masks())")
         k = int(self._local[p, a])
         if not feasible:  # penalised: no upload, the move if feasible, else the first move of the way to end

@@ -70,7 +70,9 @@ class Plan:
         if unknown:
             raise PlanError(f"{where}{_key(unknown[0])}: unknown field (allowed: positions, schedule)")
         for key in ("positions", "schedule"):
-            v = d.get(key)
+            if key not in d:
+                raise PlanError(f"{where}{key}: is required")
+            v = d[key]
             if not isinstance(v, list):
                 raise PlanError(f"{where}{key}: must be a list, got {show(v)}")
             if len(v) > MAX_HORIZON:

@@ -31,7 +31,7 @@ from voiopt._files import (
 from voiopt.errors import OptionError, VoioptError
 from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance, show
-from voiopt.objectives import OBJECTIVES, best, check_objective, gap, tightest
+from voiopt.objectives import OBJECTIVES, best, better, check_objective, gap, tightest
 from voiopt.plan import Plan
 from voiopt.result import OPTIMAL_RTOL, Result, agrees, finite
 from voiopt.simulate import simulate
@@ -124,6 +124,17 @@ def certified(inst: Instance, objective: str) -> float | None:
     return None
 
 
+def open_certificate(inst: Instance, objective: str) -> str | None:
+    """The interval of a VoI-Lib instance's open certificate (None if the instance is not in
+    the library, or its certificate is optimal)."""
+    digest = instance_hash(inst)
+    for entry in certificates()["instances"].values():
+        if entry["sha256"] == digest:
+            cert = entry["certificates"].get(objective)
+            return show_certificate(cert) if cert is not None and cert["status"] != "optimal" else None
+    return None
+
+
 def freeze(out_dir: str | os.PathLike) -> list[Path]:
     """Write the ladder's instances to ``out_dir`` (a maintainer's step for a new version)."""
     return write_set(ladder(), out_dir)
@@ -189,6 +200,10 @@ def find_instance(result: dict[str, Any]) -> tuple[str, Instance]:
     if digest is not None:
         for name, inst in lib.items():
             if instance_hash(inst) == digest:
+                named = result.get("instance")
+                if named is not None and named != name:  # two names for the instance: neither wins unsaid
+                    raise OptionError(f"instance: {show(named)} is not the instance its instance_sha256 names "
+                                      f"({name}); give one, or both of the same instance")
                 return name, inst
         raise OptionError(f"instance_sha256: {show(digest)} is no VoI-Lib {VERSION} instance")
     if "instance" not in result:
@@ -214,15 +229,15 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
     objective = result.get("objective")
     if objective is None:
         raise OptionError(f"{source}: objective: is required (one of {', '.join(OBJECTIVES)})")
-    if objective not in OBJECTIVES:
-        raise OptionError(f"{source}: objective: must be one of {', '.join(OBJECTIVES)}, got {str(objective)[:40]!r}")
+    if not isinstance(objective, str) or objective not in OBJECTIVES:
+        raise OptionError(f"{source}: objective: must be one of {', '.join(OBJECTIVES)}, got {show(objective)}")
     if "plan" not in result:
         raise OptionError(f"{source}: plan: is required")
     stated = result.get("value")
     if stated is not None and (isinstance(stated, bool) or not isinstance(stated, (int, float))
                                or not finite(stated)):
         raise OptionError(f"{source}: value: must be a finite number (or absent), got {show(stated)}")
-    value = simulate(inst, Plan.from_dict(result["plan"])).metrics[objective]
+    value = simulate(inst, Plan.from_dict({"plan": result["plan"]})).metrics[objective]  # errors name plan.
     if stated is not None:
         if not agrees(stated, value):
             by_name = "" if result.get("instance_sha256") is not None else (
@@ -236,8 +251,15 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
            "certified_bound": None, "gap_to_bound": None, "gap_to_best": None}
     if cert is not None:
         row.update(certified_status=cert["status"], certified_value=cert["value"], certified_bound=cert["bound"],
-                   gap_to_bound=gap(value, cert["bound"]), gap_to_best=gap(value, cert["value"]))
+                   gap_to_bound=gap(value, cert["bound"]), gap_to_best=behind(objective, value, cert["value"]))
     return row
+
+
+def behind(objective: str, value: float, best_known: float) -> float:
+    """How far ``value`` is behind the best known value, relative to it (the gap formula of
+    MODEL.md section 6 with a sign): negative when it is better, a new best known plan."""
+    g = gap(value, best_known)
+    return -g if better(objective, value, best_known) else g
 
 
 def score_files(paths: list[str]) -> tuple[list[dict[str, Any]], list[VoioptError]]:

@@ -18,6 +18,7 @@ comparison), or -max_i A_i(t+1) - penalty*[no upload] (AoI variant). MODEL.md se
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -174,6 +175,8 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
     if reward not in REWARDS:
         raise OptionError(f"reward: must be 'voi' or 'aoi', got {reward!r}")
     check_reward_units(reward_units)
+    if isinstance(penalty, bool) or not isinstance(penalty, (int, float, np.integer, np.floating)) or not math.isfinite(penalty):
+        raise OptionError(f"penalty: must be a finite number, got {penalty!r}")
     lat = lattice_mod.build(instance)
     n, N, T = lat.n_points, instance.n_sensors, instance.horizon
     initial_aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)
