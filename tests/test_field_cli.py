@@ -123,3 +123,20 @@ def test_shipped_examples(capsys, tmp_path):
                      "-o", str(out))
     assert code == 0 and out.stat().st_size > 10_000
     assert np.isfinite(metrics["mean-min-voi"])
+
+
+def test_validate_and_generate_say_when_a_sensor_is_never_uploaded(capsys, tmp_path):
+    """A budget too short for a sensor's round trip leaves it stranded: every plan's value is
+    then fixed by its ageing packet, so the user is told (exit 0: the instance is legal)."""
+    code, out, err = run(capsys, "generate", "--preset", "factory", "--sensors", "6", "--horizon", "30",
+                         "--max-moves", "20", "--count", "2", "--seed", "1", "--out", str(tmp_path / "f"))
+    assert code == 0 and "note: 2 of 2 network(s)" in err and "voiopt validate names them" in err
+    path = sorted((tmp_path / "f").glob("*.json"))[0]
+    inst = voiopt.load(path)
+    stranded = lattice.stranded_sensors(inst)
+    code, out, _ = run(capsys, "validate", str(path))
+    assert code == 0 and out.startswith("ok (warning: sensors ") and f"{stranded} are never uploaded" in out
+    code, _, err = run(capsys, "generate", "--preset", "factory", "--count", "2", "--seed", "1", "--out",
+                       str(tmp_path / "g"))  # the preset's own budget reaches every sensor
+    assert code == 0 and "note:" not in err
+    assert run(capsys, "validate", str(ROOT / "instances" / "dock.json"))[:2] == (0, "ok\n")

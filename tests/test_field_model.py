@@ -9,7 +9,7 @@ import random
 
 import numpy as np
 import pytest
-from conftest import field_instances, tiny_instances
+from conftest import field_instances, fleet_instances, tiny_instances
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -166,3 +166,34 @@ def test_illegal_plans_are_rejected_naming_slot_and_rule():
         voiopt.evaluate(inst, voiopt.Plan.from_dict(back_and_forth))
     with pytest.raises(oracle.OracleError):
         oracle.simulate(inst.to_dict(), back_and_forth)
+
+
+def _line(T, **extra):
+    """A 4 x 1 lattice, start and end at (0, 0), one sensor at (2, 0) only in range of it."""
+    d = {"area": {"width": 4, "height": 0.5}, "horizon": T, "start": [0, 0], "end": [0, 0],
+         "channel": {"d_th": 0.5}, "sensors": [{"position": [0.4, 0.2], "rho": 0.5},
+                                               {"position": [2, 0.2], "rho": 0.5}]}
+    d.update(extra)
+    return d
+
+
+STRANDED = [from_dict(_line(5)), from_dict(_line(4)), from_dict(_line(9, max_moves=3)),
+            from_dict(_line(9, max_moves=4)), from_dict({k: v for k, v in _line(3).items() if k != "end"})]
+
+
+@pytest.mark.parametrize("inst", STRANDED + CASES[:12] + fleet_instances(6), ids=lambda i: i.name)
+def test_the_stranded_sensors_are_those_no_legal_plan_uploads(inst):
+    """What validate warns of, and what makes an instance's objective a foregone conclusion:
+    checked against every legal plan the oracle enumerates (both legs of the walk count, as the
+    slots and the budget allow)."""
+    d = inst.to_dict()
+    uploaded = set()
+    for plan in oracle.legal_plans(d):
+        for robot in plan.get("robots", [plan]):
+            uploaded |= {u for u in robot["schedule"] if u is not None}
+    never = set(lattice.unservable_sensors(inst))
+    assert lattice.stranded_sensors(inst) == [i for i in range(inst.n_sensors) if i not in uploaded | never]
+
+
+def test_the_line_strands_its_far_sensor_by_the_slots_or_by_the_budget():
+    assert [lattice.stranded_sensors(i) for i in STRANDED] == [[], [1], [1], [], []]

@@ -101,8 +101,27 @@ def cmd_validate(args) -> int:
         note = f" ({inst.n_robots} robots)" if inst.fleet else ""
         if never:
             note += f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
+        stranded = lattice.stranded_sensors(inst) if _small_enough(inst) else []
+        if stranded:
+            note += (f" (warning: sensors {stranded} are never uploaded by any legal plan: no point in their range "
+                     "can be reached and left for the end within the horizon and max_moves; their packets only age)")
         out.print(f"{path}: ok{note}" if len(args.instances) > 1 else f"ok{note}", markup=False)
     return 2 if bad else 0
+
+
+def _small_enough(inst) -> bool:
+    """Whether a check that builds the lattice of every robot is cheap (validate stays fast on
+    the largest instances the loader accepts)."""
+    return lattice.n_points(inst) * max(1, inst.n_sensors) * inst.n_robots <= 5e7
+
+
+def _note_stranded(insts) -> None:
+    """A note, on stderr, when a generated network has sensors that no legal plan uploads."""
+    hit = [inst.name for inst in insts if _small_enough(inst) and lattice.stranded_sensors(inst)]
+    if hit:
+        err.print(f"note: {len(hit)} of {len(insts)} network(s) ({', '.join(hit[:3])}{', ...' if len(hit) > 3 else ''}) "
+                  "have sensors that no legal plan can upload (the horizon, the way to the end or --max-moves "
+                  "too short): voiopt validate names them", markup=False)
 
 
 def cmd_evaluate(args) -> int:
@@ -165,6 +184,7 @@ def cmd_generate(args) -> int:
         else:
             inst = generate_one(seed=args.seed, name=args.name, **kwargs)
         print(json.dumps(inst.to_dict(), indent=2))
+        _note_stranded([inst])
         return 0
     check_output_dir(args.out, "--out")
     if args.count > MAX_COUNT:
@@ -172,6 +192,7 @@ def cmd_generate(args) -> int:
     insts = generate_set(args.count, seed=args.seed, preset=args.preset, name=args.name, **kwargs)
     paths = write_set(insts, args.out, overwrite=args.overwrite)
     out.print(f"wrote {len(paths)} instance(s) to {args.out}", markup=False)
+    _note_stranded(insts)
     return 0
 
 

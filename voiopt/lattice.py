@@ -126,6 +126,22 @@ def unservable_sensors(instance: Instance) -> list[int]:
     return np.flatnonzero(~ok).tolist()
 
 
+def stranded_sensors(instance: Instance) -> list[int]:
+    """The sensors that have points in range, yet no legal plan can upload: no robot can stand on
+    any of them in any slot (MODEL.md section 9: reached from start, then end in the slots and
+    moves left; ``Lattice.on_some_plan``). Their packet only ages, whatever the plan, so their
+    worths are fixed: such a sensor often decides the objective alone."""
+    never = set(unservable_sensors(instance))
+    stood = None
+    for k in range(instance.n_robots):
+        lat = build(instance.robot(k))
+        d0, d1 = lat.from_start, lat.to_end  # some slot t has d0 <= t <= T - 1 - d1, within the budget
+        ok = (d0 + d1 <= instance.horizon - 1) & (d0 + d1 <= lat.budget) & ~lat.blocked
+        stood = ok if stood is None else stood | ok
+    reach = (lat.in_range & stood[None, :]).any(axis=1)
+    return [i for i in range(instance.n_sensors) if i not in never and not reach[i]]
+
+
 # build() keeps recent lattices, like an lru_cache, but bounded in bytes too: one lattice can
 # take up to 100 MB (the caps of instance.py), and 64 of those would not fit.
 _CACHE: OrderedDict[Instance, Lattice] = OrderedDict()
