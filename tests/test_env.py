@@ -164,7 +164,7 @@ def test_an_action_is_an_integer_not_anything_int_accepts(case_study):
 def test_the_normalised_reward_on_an_open_certificate_is_refused_not_solved_for_ever():
     from voiopt.experiments import voilib
 
-    inst = voilib.instances()["factory-n12-t100-000"]  # mean-min-voi open in VoI-Lib 1
+    inst = voilib.instances()["factory-n12-t100-000"]  # mean-min-voi open in VoI-Lib 1.1
     env = voienv.VoIEnv(inst, reward_mode="normalised")
     env.reset()
     with pytest.raises(OptionError, match="certificate of factory-n12-t100-000 is open"):

@@ -177,7 +177,7 @@ def test_bench_commands(capsys, tmp_path):
     unknown = tmp_path / "unknown.json"
     unknown.write_text(json.dumps({**d, "instance": "nope"}))
     code, _, err = run(capsys, "bench", "score", str(unknown))
-    assert code == 2 and "is no VoI-Lib 1 instance" in one_line_error(err)
+    assert code == 2 and f"is no VoI-Lib {voilib.VERSION} instance" in one_line_error(err)
 
 
 def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys):
@@ -200,8 +200,8 @@ def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys)
 
 @pytest.mark.parametrize("doc, message", [
     ([1, 2], "must be a result object with instance, objective and plan"),
-    ({"instance": ["x"], "objective": "max-aoi", "plan": {}}, 'instance: ["x"] is no VoI-Lib 1 instance'),
-    ({"instance_sha256": 7, "objective": "max-aoi", "plan": {}}, "instance_sha256: 7 is no VoI-Lib 1 instance"),
+    ({"instance": ["x"], "objective": "max-aoi", "plan": {}}, f'instance: ["x"] is no VoI-Lib {voilib.VERSION} instance'),
+    ({"instance_sha256": 7, "objective": "max-aoi", "plan": {}}, f"instance_sha256: 7 is no VoI-Lib {voilib.VERSION} instance"),
     ({"instance": "case-study", "objective": "best", "plan": {}}, "objective: must be one of"),
     ({"instance": "case-study", "objective": "max-aoi"}, "plan: is required"),
     ({"instance": "case-study", "objective": "max-aoi", "plan": {"positions": [], "schedule": []}},

@@ -21,7 +21,7 @@ from voiopt.objectives import check_objective
 from voiopt.plan import Plan
 from voiopt.result import Result
 from voiopt.simulate import simulate
-from voiopt.solvers import _dp_pattern, _dp_subsets
+from voiopt.solvers import _dp_cover, _dp_pattern, _dp_subsets
 from voiopt.solvers._dp_search import LABEL_BUDGET, SearchOutcome, search
 from voiopt.solvers._dp_shared import (
     CHUNK_WORK,
@@ -164,7 +164,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if b.plan is not None:
             offer(Plan.from_indices(instance, *b.plan), f"beam {width}")
 
-    relaxed, subset_runs = np.inf, []  # the subsets' bound (internal units) and their records, if they ran
+    relaxed, subset_runs = np.inf, []  # the subsets' (and cover) bound (internal units) and their records, if they ran
+    cover = np.inf  # _dp_cover's bound, if computed
     pattern_runs: list[dict] = []
     if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
         beam_pass(quick_beam)
@@ -180,12 +181,15 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         plan = _greedy_plan(instance, objective, stop) if greedy and not stop.requested else None
         if plan is not None:
             offer(plan, "greedy")
-        if pair_bound and tdma and out.stopped == LABEL_BUDGET:
+        cover = _dp_cover.bound(instance, tab) if bounding and known is None else np.inf  # a subset's has its whole's
+        relaxed = min(relaxed, cover)
+        settled = _dp_subsets.reaches(best_value, relaxed)  # an incumbent attains the cover bound: proven
+        if pair_bound and tdma and out.stopped == LABEL_BUDGET and not settled:
             tab.with_pair_bound(_pair_room(stop, tab))
         limits["tdma"] = tdma
-        if beam > 0 and out.stopped == LABEL_BUDGET:
+        if beam > 0 and out.stopped == LABEL_BUDGET and not settled:
             _widening(beam_pass, beam, stop)
-        if subsets and bounding and out.stopped == LABEL_BUDGET:
+        if subsets and bounding and out.stopped == LABEL_BUDGET and not _dp_subsets.reaches(best_value, relaxed):
             def solve_subset(sub: Instance, seconds: float | None, labels: int | None, warm: Plan | None,
                              known: _dp_subsets.Known) -> Result:
                 with watch(seconds, stop.memory_limit, labels) as sub_stop:
@@ -196,6 +200,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
 
             relaxed, subset_runs = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
                                         solve_subset, progress)
+            relaxed = min(relaxed, cover)
         elif known is not None and bounding and out.stopped == LABEL_BUDGET:
             relaxed = min(relaxed, known.bound)  # a subset of this one's sensors bounds its optimum
         if out.stopped == LABEL_BUDGET and not _dp_subsets.reaches(best_value, relaxed):
@@ -234,8 +239,10 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
                     "threads": threads},
     }
     solver["startup_s"] = startup_s
-    if np.isfinite(relaxed):
+    if np.isfinite(relaxed) and (subset_runs or known is not None):  # with the cover bound, where lower
         solver["subset_bound"] = tab.external(relaxed)
+    if np.isfinite(cover):
+        solver["cover_bound"] = tab.external(cover)
     if subset_runs:
         solver["subsets"] = subset_runs
     if pattern_runs:
