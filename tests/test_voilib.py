@@ -147,6 +147,11 @@ def test_the_gap_to_the_best_known_value_is_negative_for_a_better_plan():
     assert voilib.score(sub)["gap_to_best"] >= 0
 
 
+def test_a_submitters_own_fields_are_kept_out_of_the_way():
+    sub = {**_submission("paper-n4-t30-000", "mean-min-voi"), "seed": 3, "notes": "PPO, 1e6 steps", "method": "ppo"}
+    assert voilib.score(sub)["value"] == sub["value"]
+
+
 def test_score_needs_an_objective_but_no_value():
     sub = _submission("paper-n4-t30-000", "mean-min-voi")
     unstated = {k: v for k, v in sub.items() if k != "value"}
@@ -214,6 +219,10 @@ def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys)
     (case_study().to_dict(), "an instance, not a result"),
     ({"version": 1, "instances": {}}, "a certificates file, not a result"),
     ({"instance": "case-study", "objective": ["max-aoi"], "plan": {}}, 'objective: must be one of'),
+    ({"instance": "case-study", "objective": "max-aoi", "plan": case_study_plan().to_dict(), "vaule": 3},
+     '"vaule": unknown field; did you mean value?'),
+    ({"instance": "case-study", "objectiv": "max-aoi", "plan": case_study_plan().to_dict()},
+     '"objectiv": unknown field; did you mean objective?'),
     ({"instance": "case-study", "objective": {"a": 1}, "plan": {}}, 'got {"a": 1}'),
     ({"instance": "case-study", "objective": "max-aoi", "plan": {"schedule": []}}, "plan.positions: is required"),
     ({"instance": "case-study", "objective": "max-aoi", "plan": {**case_study_plan().to_dict(), "speed": 1}},

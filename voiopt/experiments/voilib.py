@@ -12,6 +12,7 @@ independently; where both prove optimality their values must agree, or certifica
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import hashlib
 import json
 import os
@@ -225,6 +226,7 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
     if "sensors" in result or "instances" in result:
         what = "an instance" if "sensors" in result else "a certificates file"
         raise OptionError(f"{source}: {what}, not a result (instance, objective and plan; voiopt solve -o writes one)")
+    _check_spelling(result, source)
     name, inst = find_instance(result)
     objective = result.get("objective")
     if objective is None:
@@ -253,6 +255,21 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
         row.update(certified_status=cert["status"], certified_value=cert["value"], certified_bound=cert["bound"],
                    gap_to_bound=gap(value, cert["bound"]), gap_to_best=behind(objective, value, cert["value"]))
     return row
+
+
+SUBMISSION_FIELDS = ("instance", "instance_sha256", "objective", "plan", "value")
+RESULT_FIELDS = ("method", "status", "bound", "gap", "runtime_s", "metrics", "solver")
+
+
+def _check_spelling(result: dict[str, Any], source: str) -> None:
+    """Other fields are a submitter's own (a method's name, a seed), but one spelled like a
+    field bench score reads is a typo that would switch off what it asks ("vaule": the check
+    of the stated value)."""
+    for key in result:
+        if key not in SUBMISSION_FIELDS + RESULT_FIELDS:
+            near = difflib.get_close_matches(str(key), SUBMISSION_FIELDS, n=1, cutoff=0.75)
+            if near:
+                raise OptionError(f"{source}: {show(key)}: unknown field; did you mean {near[0]}?")
 
 
 def behind(objective: str, value: float, best_known: float) -> float:
