@@ -27,12 +27,28 @@ def test_mps_round_trip_gives_the_optimum(tmp_path, name, objective):
     best = voiopt.solve(inst, "dp", objective)
     assert best.status == "optimal"
     assert got.value == pytest.approx(best.value, rel=1e-6)
-    # the same solution as SCIP writes it: only the non-zero columns, "name value (obj:c)"
-    lines = [ln.split() for ln in solution.read_text().splitlines()]
+    # the same solution as SCIP writes it: its objective, then the non-zero columns, "name value (obj:c)"
+    columns, stated = _columns(solution)
     scip = tmp_path / "scip.sol"
-    scip.write_text("solution status: optimal solution found\nobjective value: 1\n" + "".join(
-        f"{p[0]} {p[1]} \t(obj:0)\n" for p in lines if len(p) == 2 and p[0][:2] in ("x_", "y_") and float(p[1]) > 0.5))
+    scip.write_text(f"solution status: optimal solution found\nobjective value: {stated}\n" + "".join(
+        f"{k} {v} \t(obj:0)\n" for k, v in columns.items() if float(v) != 0))
     assert import_solution(inst, objective, model, scip).value == got.value
+    # and as CPLEX writes it: XML
+    cplex = tmp_path / "cplex.sol"
+    cplex.write_text(f'<?xml version = "1.0" standalone="yes"?>\n<CPLEXSolution version="1.2">\n <header\n'
+                     f'   problemName="m.mps"\n   objectiveValue="{stated}"\n   solutionTypeValue="3"/>\n <variables>\n'
+                     + "".join(f'  <variable name="{k}" index="{j}" value="{v}"/>\n'
+                               for j, (k, v) in enumerate(columns.items())) + " </variables>\n</CPLEXSolution>\n")
+    assert import_solution(inst, objective, model, cplex).value == got.value
+
+
+def _columns(solution) -> tuple[dict[str, str], str]:
+    """The primal column values and the objective of HiGHS's raw solution file."""
+    text = solution.read_text()
+    head, body = text.split("# Columns", 1)
+    stated = next(ln.split()[1] for ln in head.splitlines() if ln.startswith("Objective "))
+    rows = body.split("# Rows", 1)[0].splitlines()[1:]
+    return {p[0]: p[1] for p in (ln.split() for ln in rows) if len(p) == 2}, stated
 
 
 def test_covering_problem_export_is_feasible_exactly_up_to_the_optimum(tmp_path):
@@ -66,7 +82,7 @@ def test_import_solution_command_and_errors(capsys, tmp_path):
     junk = tmp_path / "junk.sol"
     junk.write_text("nothing here\n")
     code, _, err = run(capsys, "import-solution", str(DOCK), str(model), str(junk), "-o", str(out))
-    assert code == 2 and "not a solution of it" in one_line_error(err)
+    assert code == 2 and "no primal solution in it" in one_line_error(err)
     code, _, err = run(capsys, "export", str(DOCK), str(model), "--covering-level", "1")
     assert code == 2 and "covering problems exist for min-voi and max-aoi" in one_line_error(err)
 
@@ -129,3 +145,35 @@ def test_a_solution_that_is_not_one_plan_is_refused(capsys, tmp_path):
     assert run(capsys, "import-solution", str(DOCK), str(model), str(near), "-o", str(tmp_path / "r.json"))[0] == 0
     code, _, err = run(capsys, "import-solution", str(DOCK), str(tmp_path), str(solution), "-o", str(tmp_path / "r.json"))
     assert code == 2 and "MODEL" in one_line_error(err) and "a folder, not a file" in err
+
+
+def test_a_file_cut_short_or_of_another_model_is_refused(capsys, tmp_path):
+    """A review cut HiGHS's file after its x columns: it was read as a plan with no uploads
+    (477017 where the optimum is 2197694), silently. A model with a sensor more, a column the
+    model has not, or a column given twice were read silently too."""
+    inst = voiopt.load(DOCK)
+    model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
+    export(inst, "mean-min-voi", model)
+    solve_model_file(model, solution)
+    text = solution.read_text()
+    assert import_solution(inst, "mean-min-voi", model, solution).status == "feasible"
+
+    def refused(body: str, match: str, instance=inst, model_file=model) -> None:
+        path = tmp_path / "edited.sol"
+        path.write_text(body)
+        with pytest.raises(voiopt.OptionError, match=match):
+            import_solution(instance, "mean-min-voi", model_file, path)
+
+    cut = text[:text.index("\ny_")] + "\n"  # HiGHS's file cut after the x columns: its header counts more
+    refused(cut, r"its header announces \d+ columns, but \d+ follow: is the file cut short\?")
+    columns, stated = _columns(solution)
+    plain = f"# Objective value = {stated}\n" + "".join(f"{k} {v}\n" for k, v in columns.items() if not k.startswith("z"))
+    refused(plain, "states the objective value .* but its columns give")  # Gurobi's form without the worths
+    refused(text.replace("# Columns", "y_i9_t1_p4 1\n# Columns", 1), "y_i9_t1_p4: not a column of MODEL")
+    first = next(k for k in columns if k.startswith("x_"))
+    refused(text.replace("# Rows", f"{first} {columns[first]}\n# Rows", 1), f"{first}: given twice")
+    fewer = inst.to_dict()
+    fewer["sensors"] = fewer["sensors"][:-1]  # the model has the last sensor's y columns, this instance not
+    refused(text, "which .* has not\\): was it exported from another instance", voiopt.instance.from_dict(fewer))
+    shorter = {**inst.to_dict(), "horizon": inst.horizon - 1}
+    refused(text, "which .* has not\\): was it exported from another instance", voiopt.instance.from_dict(shorter))

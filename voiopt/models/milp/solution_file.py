@@ -2,15 +2,20 @@
 
 The solution is matched to the exported model by column name (docs/milp.md): only the x and y
 columns matter, ``x_t<slot>_p<point>`` and ``y_i<sensor>_t<slot>_p<point>``. Two file forms
-are read: HiGHS's solution file (``writeSolution``, or ``--solution_file``) and the common
-``name value`` lines of a .sol file from SCIP, Gurobi or CPLEX; other lines (headers, comments,
-objective values, rows) are skipped, and a column a file leaves out is 0. The plan is then
-simulated like any other: the file's own objective value is never used.
+are read: HiGHS's solution file (``writeSolution``, or ``--solution_file``), the common
+``name value`` lines of a .sol file from SCIP or Gurobi, and CPLEX's XML; other lines (headers,
+comments, rows) are skipped, and a column a file leaves out is 0. A file cut short is refused:
+its header's count of columns (HiGHS), or the objective value it states against the one its
+values give under the model. The plan is then simulated like any other: the file's own
+objective value is never used as the result's.
 """
 
 from __future__ import annotations
 
+import math
 import os
+import re
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +39,18 @@ def _existing(path: str | os.PathLike, what: str) -> Path:
     return p
 
 
-def model_names(model: str | os.PathLike) -> tuple[set[str], bool]:
-    """The column names of an MPS or LP file (read by HiGHS), and whether it maximises."""
+@dataclass(frozen=True)
+class Model:
+    """What import needs of an MPS or LP file: its column names, its sense and its objective."""
+
+    names: set[str]
+    maximises: bool
+    cost: dict[str, float]  # the non-zero objective coefficients
+    offset: float
+
+
+def read_model(model: str | os.PathLike) -> Model:
+    """An MPS or LP file, read by HiGHS."""
     import highspy
 
     h = new_highs()
@@ -44,7 +59,8 @@ def model_names(model: str | os.PathLike) -> tuple[set[str], bool]:
     if h.readModel(str(model)) == highspy.HighsStatus.kError:
         raise OptionError(f"MODEL: HiGHS cannot read {str(model)!r} as MPS or LP")
     lp = h.getLp()
-    return set(lp.col_names_), lp.sense_ == highspy.ObjSense.kMaximize
+    cost = {n: float(c) for n, c in zip(lp.col_names_, lp.col_cost_, strict=True) if c != 0}
+    return Model(set(lp.col_names_), lp.sense_ == highspy.ObjSense.kMaximize, cost, float(lp.offset_))
 
 
 def _check_objective(objective: str, in_model: set[str], maximises: bool, horizon: int) -> None:
@@ -62,24 +78,98 @@ def _check_objective(objective: str, in_model: set[str], maximises: bool, horizo
                           "exported with")
 
 
-def read_values(solution: str | os.PathLike, names: dict[str, int]) -> dict[str, float]:
-    """``name value`` pairs of the known columns in a solution file."""
+@dataclass
+class Read:
+    """A solution file's column values (of the model's columns), the objective value it states
+    (None if none), and, for HiGHS's file, the columns its header announces and those listed."""
+
+    values: dict[str, float] = field(default_factory=dict)
+    stated: float | None = None
+    declared: int | None = None
+    listed: int = 0
+
+
+_OBJECTIVE = re.compile(r"^#?\s*objective(?:\s+value)?\s*[:=]?\s+(\S+)$", re.IGNORECASE)  # HiGHS, SCIP, Gurobi
+_XML = re.compile(r'(\w+)="([^"]*)"')  # CPLEX's XML: <variable name="x_t0_p2" index="0" value="1"/>
+_COLUMN = re.compile(r"^[xy]_(?:i\d+_)?t\d+_p\d+$")  # a path column's name, of this instance or not
+
+
+def read_values(solution: str | os.PathLike, in_model: set[str]) -> Read:
+    """The model's columns' values in a solution file: HiGHS's raw file (its primal part),
+    ``name value`` lines (SCIP, Gurobi) or CPLEX's XML. A path column the model has not, or a
+    column given twice, is refused: the file is of another model, or garbled."""
     p = _existing(solution, "SOLUTION")
     if p.stat().st_size > 8 * MAX_JSON_BYTES:
         raise OptionError(f"SOLUTION: {solution}: larger than {8 * MAX_JSON_BYTES} bytes")
-    values = {}
+    out, section = Read(), None
     with open(p, encoding="utf-8", errors="replace") as f:
         for line in f:
-            parts = line.split()
-            if len(parts) >= 2 and parts[0] in names:
-                try:
-                    v = float(parts[1])
-                except ValueError:
-                    raise OptionError(f"SOLUTION: {parts[0]}: must be a number, got {parts[1][:40]!r}") from None
-                if not np.isfinite(v):
-                    raise OptionError(f"SOLUTION: {parts[0]}: must be a finite number, got {parts[1][:40]!r}")
-                values[parts[0]] = v
-    return values
+            text = line.strip()
+            if text.startswith(("# Dual", "# Basis")):  # HiGHS: the primal values are all read
+                break
+            if text.startswith("# Rows"):
+                section = "rows"
+                continue
+            if text.startswith("# Columns"):
+                section, words = "columns", text.split()
+                out.declared = int(words[2]) if len(words) > 2 and words[2].isdigit() else None
+                continue
+            if text.startswith("<"):
+                fields = dict(_XML.findall(text))
+                if text.startswith("<header") and "objectiveValue" in fields:
+                    out.stated = _number(fields["objectiveValue"], "objectiveValue")
+                if text.startswith("<variable") and "name" in fields and "value" in fields:
+                    _take(out, fields["name"], fields["value"], in_model, section)
+                continue
+            found = _OBJECTIVE.match(text)
+            if found and section is None:
+                out.stated = _number(found.group(1), "objective value", strict=False)
+                continue
+            parts = text.split()
+            if len(parts) >= 2 and section != "rows":
+                _take(out, parts[0], parts[1], in_model, section)
+    return out
+
+
+def _take(out: Read, name: str, value: str, in_model: set[str], section) -> None:
+    if name not in in_model:
+        if _COLUMN.match(name):
+            raise OptionError(f"SOLUTION: {name}: not a column of MODEL (a solution of another instance's model?)")
+        return
+    if name in out.values:
+        raise OptionError(f"SOLUTION: {name}: given twice")
+    out.values[name] = _number(value, name)
+    out.listed += section == "columns"
+
+
+def _number(text: str, what: str, strict: bool = True) -> float | None:
+    try:
+        v = float(text)
+    except ValueError:
+        if not strict:
+            return None
+        raise OptionError(f"SOLUTION: {what}: must be a number, got {text[:40]!r}") from None
+    if not np.isfinite(v):
+        raise OptionError(f"SOLUTION: {what}: must be a finite number, got {text[:40]!r}")
+    return v
+
+
+def _check_whole(read: Read, model: Model, solution) -> None:
+    """A file cut short lists fewer columns than its header says, or states an objective value
+    that its values do not give (a column left out counts 0, as in SCIP's files)."""
+    if read.declared is not None and read.listed != read.declared:
+        raise OptionError(f"SOLUTION: {solution}: its header announces {read.declared} columns, but {read.listed} "
+                          "follow: is the file cut short?")
+    if read.stated is not None:
+        terms = [c * read.values.get(n, 0.0) for n, c in model.cost.items()]
+        given = model.offset + math.fsum(terms)
+        scale = max(abs(read.stated), math.fsum(abs(t) for t in terms), 1e-300)
+        if abs(given - read.stated) > OBJECTIVE_RTOL * scale:
+            raise OptionError(f"SOLUTION: {solution}: states the objective value {read.stated:.10g}, but its columns "
+                              f"give {given:.10g} under MODEL: is the file cut short, or of another model?")
+
+
+OBJECTIVE_RTOL = 1e-6  # the stated objective against the one its values give: files round their values
 
 
 INTEGRAL = 1e-5  # how far from 0 or 1 an x or y value may be: Gurobi's and CPLEX's default integrality tolerance
@@ -116,15 +206,20 @@ def import_solution(instance: Instance, objective: str, model: str | os.PathLike
                           f"{instance.n_robots} robots (solve the fleet with voiopt solve --method milp)")
     st = structure(instance, objectives.get(objective).worth)
     names = path_names(st)
-    in_model, maximises = model_names(model)
-    missing = sorted(set(names) - in_model)
-    if missing:
-        raise OptionError(f"MODEL: its columns are not those voiopt exports for {instance.name} (no {missing[0]}): "
+    m = read_model(model)
+    missing = sorted(set(names) - m.names)
+    extra = sorted(n for n in m.names - set(names) if _COLUMN.match(n))
+    if missing or extra:
+        which = f"no {missing[0]}" if missing else f"{extra[0]}, which {instance.name} has not"
+        raise OptionError(f"MODEL: its columns are not those voiopt exports for {instance.name} ({which}): "
                           "was it exported from another instance?")
-    _check_objective(objective, in_model, maximises, instance.horizon)
-    values = read_values(solution, names)
+    _check_objective(objective, m.names, m.maximises, instance.horizon)
+    read = read_values(solution, m.names)
+    values = {k: v for k, v in read.values.items() if k in names}
     if not any(k.startswith("x_") for k in values):
-        raise OptionError(f"SOLUTION: {solution}: no x_t<slot>_p<point> column of the model: not a solution of it")
+        raise OptionError(f"SOLUTION: {solution}: no value of an x_t<slot>_p<point> column of the model: no primal "
+                          "solution in it (HiGHS: write it in the raw style, writeSolution(file, 0))")
+    _check_whole(read, m, solution)
     col = np.zeros(st.n_base)
     for k, v in values.items():
         col[names[k]] = v
