@@ -186,6 +186,8 @@ def test_evaluate_and_warm_start_name_the_plan_file_and_refuse_another_instance_
     bad.write_text(json.dumps(plan))
     code, _, err = run(capsys, "evaluate", CASE, str(bad))
     assert code == 2 and one_line_error(err).startswith(f"voiopt: error: {bad}: positions[1]: [4, 4] is not one")
+    code, _, err = run(capsys, "solve", CASE, "--method", "dp", "--quiet", "--warm-start", str(bad))
+    assert code == 2 and one_line_error(err).startswith(f"voiopt: error: --warm-start: {bad}: positions[1]: [4, 4]")
     assert run(capsys, "evaluate", CASE, str(result))[0] == 0  # its own instance: fine
 
 

@@ -155,7 +155,7 @@ def test_each_swap_and_shared_point_the_oracle_rejects_voiopt_rejects():
     ({"robots": [{"start": [0, 0], "speed": 2}]}, "robots[0].speed: unknown field"),
     ({"robots": [{"start": [0, 0]}, {"end": [1, 0]}]}, "robots[1].start: is required"),
     ({"robots": [{"start": [0, 0]}, {"start": [2, 0], "end": [0, 0], "max_moves": 1}]},
-     "robots[1].end: [0, 0] is not reachable within 1 moves"),
+     "robots[1].end: [0, 0] is not reachable within 1 move "),
     ({"robots": [{"start": [0, 0]}, {"start": [2, 0]}], "blocked": [[2, 0]]}, "blocked[0]: [2, 0] is robots[1].start"),
 ])
 def test_fleet_instance_errors_name_the_robot(change, message):

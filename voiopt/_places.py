@@ -178,8 +178,12 @@ def check_route(ck: Checker, width, height, step, horizon, start, end, blocked, 
     if moves >= _grid.UNREACHABLE:
         ck.fail(_join(path, "end"), f"{_xy(end)} is not reachable from start {_xy(start)}: the blocked points wall it off")
     elif moves > allowed:
-        ck.fail(_join(path, "end"), f"{_xy(end)} is not reachable within {allowed} moves ({why}): it is {moves} moves "
+        ck.fail(_join(path, "end"), f"{_xy(end)} is not reachable within {_moves(allowed)} ({why}): it is {_moves(moves)} "
                        f"from start {_xy(start)}{around}")
+
+
+def _moves(k: int) -> str:
+    return f"{k} move" if k == 1 else f"{k} moves"
 
 
 def check_together(ck: Checker, width, height, step, horizon, blocked, robots) -> None:

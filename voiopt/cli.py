@@ -196,14 +196,18 @@ def cmd_generate(args) -> int:
     return 0
 
 
-def _solve_options(args, inst_name: str) -> dict:
+def _solve_options(args, inst) -> dict:
     opts = {}
     for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units"):
         v = getattr(args, key, None)
         if v is not None:
             opts[key] = v
     if args.warm_start is not None:
-        opts["warm_start"] = voiopt.load_plan(args.warm_start, inst_name)
+        opts["warm_start"] = voiopt.load_plan(args.warm_start, inst.name)
+        try:  # a plan that breaks a rule of this instance: say which file
+            voiopt.evaluate(inst, opts["warm_start"])
+        except PlanError as e:
+            raise PlanError(f"--warm-start: {args.warm_start}: {e}") from None
     if not args.quiet and not args.json:
         opts["progress"] = True
     if args.verbose:
@@ -215,7 +219,7 @@ def cmd_solve(args) -> int:
     if args.output is not None:
         check_output_file(args.output)  # before the work, not after it
     inst = instance_mod.load(args.instance)
-    result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst.name))
+    result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst))
     if args.output:
         result.save(args.output)
     if args.json:

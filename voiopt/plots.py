@@ -27,7 +27,7 @@ SCHEMES = {  # method -> label in the paper's words
     "qlearning": "VoI-optimal (Q-learning)",
     "aoi-qlearning": "AoI-optimal (Q-learning)",
     "shortest-path": "shortest path",
-    "dp": "proven optimum (dp)",
+    "dp": "dp (the optimum where certified)",
 }
 
 COLOURS = {"qlearning": "tab:blue", "aoi-qlearning": "tab:orange", "shortest-path": "tab:green", "dp": "black"}

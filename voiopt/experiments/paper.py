@@ -86,7 +86,7 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
             by_seed = _values_by_seed(runs)
             seed_means = [statistics.fmean(vals) for vals in by_seed.values()]
             per_network = _network_means(runs)  # a randomised method's seeds averaged first: the CI is over networks
-            sd = statistics.stdev(per_network) if len(per_network) > 1 else 0.0
+            sd = statistics.stdev(per_network) if len(per_network) > 1 else math.nan
             bounds = [r.bound if r.bound is not None else math.nan for _, r in runs]
             n_networks = len({r.instance for _, r in runs})
             rows.append({
@@ -94,7 +94,7 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
                 "mean": statistics.fmean(seed_means) if seed_means else None,
                 "seed_min": min(seed_means) if seed_means else None,
                 "seed_max": max(seed_means) if seed_means else None,
-                "ci95": 1.96 * sd / math.sqrt(len(per_network)) if per_network else None,
+                "ci95": 1.96 * sd / math.sqrt(len(per_network)) if len(per_network) > 1 else None,  # none from one
                 "mean_bound": statistics.fmean(bounds) if m == "dp" and bounds and not any(map(math.isnan, bounds)) else None,
                 "certified": sum(r.status == "optimal" for _, r in runs) if m == "dp" else None,
                 "errors": sum(r.status == "error" for _, r in runs),
@@ -279,7 +279,7 @@ def _robots_figure(insts, tasks, networks: int, seed: int, seeds: int, reward_un
     plot_robots(ROBOTS, rows, out / f"{key}.png")
     md += ["", f"## {key} (several robots, not in the paper)", "", f"![{key}]({key}.png)", "",
            f"{ROBOTS.title}. Numbers: `{key}.csv`.", "",
-           "| K | optimum (certified) | proven bound | " + " | ".join(ROBOT_METHODS) + " |",
+           "| K | best exact plan (networks certified optimal) | proven bound | " + " | ".join(ROBOT_METHODS) + " |",
            "|---|---:|---:|" + "---:|" * len(ROBOT_METHODS)]
     fmt = lambda x: "-" if x in (None, "") else f"{float(x):.4g}"  # noqa: E731
     for v in ROBOTS.values:
