@@ -122,7 +122,7 @@ ILLEGAL = [
     (plan_with(schedule=(2, -1)), "schedule[2]: unknown sensor index -1"),
     (plan_with(schedule=(2, [0, 1])), "schedule[2]: must be a sensor index or null"),  # two sensors in one slot
     (plan_with(schedule=(2, "0")), "schedule[2]: must be a sensor index or null"),
-    ({"positions": CASE_STUDY_PLAN["positions"]}, "schedule: must be a list"),
+    ({"positions": CASE_STUDY_PLAN["positions"]}, "schedule: is required"),
     ({"positions": CASE_STUDY_PLAN["positions"], "schedule": [None] * 10, "moves": []}, "moves: unknown field"),
 ]
 

@@ -101,7 +101,7 @@ def cmd_validate(args) -> int:
         note = f" ({inst.n_robots} robots)" if inst.fleet else ""
         if never:
             note += f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
-        stranded = lattice.stranded_sensors(inst) if _small_enough(inst) else []
+        stranded = lattice.stranded_sensors(inst) if lattice.cheap(inst) else []
         if stranded:
             note += (f" (warning: sensors {stranded} are never uploaded by any legal plan: no point in their range "
                      "can be reached and left for the end within the horizon and max_moves; their packets only age)")
@@ -109,15 +109,9 @@ def cmd_validate(args) -> int:
     return 2 if bad else 0
 
 
-def _small_enough(inst) -> bool:
-    """Whether a check that builds the lattice of every robot is cheap (validate stays fast on
-    the largest instances the loader accepts)."""
-    return lattice.n_points(inst) * max(1, inst.n_sensors) * inst.n_robots <= 5e7
-
-
 def _note_stranded(insts) -> None:
     """A note, on stderr, when a generated network has sensors that no legal plan uploads."""
-    hit = [inst.name for inst in insts if _small_enough(inst) and lattice.stranded_sensors(inst)]
+    hit = [inst.name for inst in insts if lattice.cheap(inst) and lattice.stranded_sensors(inst)]
     if hit:
         err.print(f"note: {len(hit)} of {len(insts)} network(s) ({', '.join(hit[:3])}{', ...' if len(hit) > 3 else ''}) "
                   "have sensors that no legal plan can upload (the horizon, the way to the end or --max-moves "

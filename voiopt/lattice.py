@@ -126,6 +126,13 @@ def unservable_sensors(instance: Instance) -> list[int]:
     return np.flatnonzero(~ok).tolist()
 
 
+def cheap(instance: Instance, work: float = 5e7) -> bool:
+    """Whether building every robot's lattice, with its distances to every sensor, is cheap: a
+    check that needs them (``stranded_sensors``) stays quick for ``voiopt validate`` on the
+    largest instances the loader accepts."""
+    return n_points(instance) * max(1, instance.n_sensors) * instance.n_robots <= work
+
+
 def stranded_sensors(instance: Instance) -> list[int]:
     """The sensors that have points in range, yet no legal plan can upload: no robot can stand on
     any of them in any slot (MODEL.md section 9: reached from start, then end in the slots and
