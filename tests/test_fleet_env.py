@@ -12,7 +12,7 @@ import warnings
 import gymnasium
 import numpy as np
 import pytest
-from conftest import fleet_instances
+from conftest import ROOT, fleet_instances
 from gymnasium.utils.env_checker import check_env
 from oracles import model_oracle as oracle
 from pettingzoo.test import parallel_api_test
@@ -21,7 +21,7 @@ import voiopt
 import voiopt.env as voienv
 from voiopt.errors import OptionError
 from voiopt.plan import FleetPlan
-from voiopt.pz_env import parallel_env
+from voiopt.pz_env import VoIParallelEnv, parallel_env
 from voiopt.simulate import simulate
 
 CASES = fleet_instances()
@@ -127,6 +127,19 @@ def test_a_conflict_replaces_the_higher_indexed_agent():
     assert not infos["robot_0"]["replaced"] and infos["robot_1"]["replaced"]
     assert rewards["robot_1"] == rewards["robot_0"] - 100.0
     assert env.env.state[0][0] == 1 and infos["robot_1"]["executed"] % 5 != west  # (0, 1) is point 1
+
+
+def test_an_agents_action_is_an_integer_as_in_the_gym_env():
+    """pz_env read int(0.7) as action 0 and crashed on a one-element array; the Gym env refuses
+    the first and takes the second, and so does each agent now."""
+    env = VoIParallelEnv(voiopt.load(ROOT / "instances" / "fleet.json"))
+    env.reset(seed=0)
+    first = env.possible_agents[0]
+    for bad in (0.7, np.float64(0.2), "0"):
+        with pytest.raises(OptionError, match=rf"actions\['{first}'\]: must be an integer"):
+            env.step(dict.fromkeys(env.agents, bad))
+    _, _, _, _, infos = env.step(dict.fromkeys(env.agents, np.array([0])))
+    assert not any(i["replaced"] for i in infos.values())
 
 
 def test_core_voiopt_does_not_import_pettingzoo():

@@ -40,6 +40,12 @@ def test_mps_round_trip_gives_the_optimum(tmp_path, name, objective):
                      + "".join(f'  <variable name="{k}" index="{j}" value="{v}"/>\n'
                                for j, (k, v) in enumerate(columns.items())) + " </variables>\n</CPLEXSolution>\n")
     assert import_solution(inst, objective, model, cplex).value == got.value
+    # and as a solver that prints 6 significant digits writes it: the plan is intact, the
+    # objective agrees within what the digits allow (a review found it refused)
+    short = tmp_path / "short.sol"
+    short.write_text(f"objective value: {float(stated):g}\n"
+                     + "".join(f"{k} {float(v):g}\n" for k, v in columns.items()))
+    assert import_solution(inst, objective, model, short).value == got.value
 
 
 def _columns(solution) -> tuple[dict[str, str], str]:
@@ -169,6 +175,12 @@ def test_a_file_cut_short_or_of_another_model_is_refused(capsys, tmp_path):
     columns, stated = _columns(solution)
     plain = f"# Objective value = {stated}\n" + "".join(f"{k} {v}\n" for k, v in columns.items() if not k.startswith("z"))
     refused(plain, "states the objective value .* but its columns give")  # Gurobi's form without the worths
+    xml = (f'<?xml version = "1.0" standalone="yes"?>\n<CPLEXSolution version="1.2">\n <header\n   problemName="m"\n'
+           f'   objectiveValue="{stated}"/>\n <variables>\n'  # CPLEX's layout: an attribute a line
+           + "".join(f'  <variable name="{k}" index="{j}"\n   value="{v}"/>\n' for j, (k, v) in enumerate(columns.items())
+                     if k.startswith("x_")) + " </variables>\n</CPLEXSolution>\n")
+    refused(xml, "states the objective value .* but its columns give")
+    refused(xml[:len(xml) // 2], "not well-formed XML")
     refused(text.replace("# Columns", "y_i9_t1_p4 1\n# Columns", 1), "y_i9_t1_p4: not a column of MODEL")
     first = next(k for k in columns if k.startswith("x_"))
     refused(text.replace("# Rows", f"{first} {columns[first]}\n# Rows", 1), f"{first}: given twice")

@@ -150,6 +150,13 @@ def test_the_gap_to_the_best_known_value_is_negative_for_a_better_plan():
 def test_a_submitters_own_fields_are_kept_out_of_the_way():
     sub = {**_submission("paper-n4-t30-000", "mean-min-voi"), "seed": 3, "notes": "PPO, 1e6 steps", "method": "ppo"}
     assert voilib.score(sub)["value"] == sub["value"]
+    own = ("instance_name", "instance_id", "instance_file", "instance_hash", "objective_value", "objectives", "values",
+           "plans", "author", "planner", "metric", "evaluated_value", "plot", "distance", "valid")  # 9 were refused
+    assert voilib.score({**sub, **dict.fromkeys(own, 1)})["value"] == sub["value"]
+    for typo, meant in (("vaule", "value"), ("Value", "value"), ("objectiv", "objective"), ("plna", "plan"),
+                        ("instnace", "instance")):
+        with pytest.raises(OptionError, match=f'"{typo}": unknown field; did you mean {meant}\\?'):
+            voilib.score({**sub, typo: 1})
 
 
 def test_score_needs_an_objective_but_no_value():

@@ -63,6 +63,26 @@ INFEASIBLE = ("raise", "penalise")
 _OPTIMA: dict[Instance, float] = {}  # the normalising optimum of each instance met in this process
 
 
+def _check_normalisable(instance: Instance) -> None:
+    """The normalised reward divides by a proven optimum: an instance whose VoI-Lib certificate
+    is still open has none (dp would search for it without end), so it is refused up front."""
+    from voiopt.experiments import voilib
+
+    interval = voilib.open_certificate(instance, "mean-min-voi")
+    if interval is not None:
+        raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and VoI-Lib's mean-min-voi certificate "
+                          f"of {instance.name} is open ({interval}); use 'paper'")
+
+
+def as_integer(action: Any, must: str = "an integer", what: str = "action") -> int:
+    """An action as an int: a Python or numpy integer, or a one-element integer array (what
+    agents pass). Anything else (0.7, "3", True) is refused, not truncated to an action."""
+    whole = action.item() if isinstance(action, np.ndarray) and action.size == 1 else action
+    if isinstance(whole, bool) or not isinstance(whole, (int, np.integer)):
+        raise OptionError(f"{what}: must be {must}, got {action!r}")
+    return int(whole)
+
+
 def _check_sample(sample: Any) -> dict:
     """The keyword arguments of voiopt.generate for sampled networks (without ``seed``)."""
     if sample is None:
@@ -114,6 +134,8 @@ class VoIEnv(gym.Env):
     # ------------------------------------------------------------------ the instance
 
     def _load(self, instance: Instance) -> None:
+        if self.reward_mode == "normalised":
+            _check_normalisable(instance)
         self.instance = instance
         self.model = mdp_mod.build(instance, self.options["reward"], self.options["penalty"],
                                    reward_units=self.options["reward_units"])
@@ -142,10 +164,6 @@ class VoIEnv(gym.Env):
 
             if self.instance not in _OPTIMA:
                 cert = voilib.certified(self.instance, "mean-min-voi")
-                if cert is None and voilib.open_certificate(self.instance, "mean-min-voi") is not None:
-                    raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and VoI-Lib's mean-min-voi "
-                                      f"certificate of {self.instance.name} is open "
-                                      f"({voilib.open_certificate(self.instance, 'mean-min-voi')}); use 'paper'")
                 if cert is None:
                     result = dp.solve(self.instance, "mean-min-voi", progress=True)
                     if result.status != "optimal":
@@ -199,10 +217,7 @@ class VoIEnv(gym.Env):
 
     def _check_action(self, action) -> int:
         """The action as an int; raises if it is outside the space or the episode has ended."""
-        whole = action.item() if isinstance(action, np.ndarray) and action.size == 1 else action
-        if isinstance(whole, bool) or not isinstance(whole, (int, np.integer)):  # 0.7 is not action 0
-            raise OptionError(f"action: must be an integer in 0..{self.action_space.n - 1}, got {action!r}")
-        a = int(whole)
+        a = as_integer(action, f"an integer in 0..{self.action_space.n - 1}")
         if not 0 <= a < self.action_space.n:
             raise OptionError(f"action: must be in 0..{self.action_space.n - 1}, got {action!r}")
         if self.t >= self.instance.horizon:

@@ -39,7 +39,7 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the installed extras
     raise MissingExtraError(e.name or "pettingzoo", "rl") from e
 
-from voiopt.env import VoIEnv
+from voiopt.env import VoIEnv, as_integer
 from voiopt.instance import Instance
 from voiopt.models import mdp as mdp_mod
 from voiopt.plan import FleetPlan, Plan
@@ -104,7 +104,8 @@ class VoIParallelEnv(ParallelEnv):
         replaced = []
         for agent in self.possible_agents:
             a = actions.get(agent)
-            a = int(a) if a is not None and 0 <= int(a) < self._n else -1
+            a = -1 if a is None else as_integer(a, what=f"actions[{agent!r}]")  # 0.7 is refused, not action 0
+            a = a if 0 <= a < self._n else -1
             if kept + (a,) in prefixes:
                 kept, swap = kept + (a,), False
             else:

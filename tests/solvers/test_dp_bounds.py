@@ -409,7 +409,7 @@ def test_the_fewest_moves_to_cover_a_set_are_those_of_the_legal_plans():
         points = np.flatnonzero(lat.in_range.any(axis=0) & ~lat.blocked)
         if len(points) == 0:
             continue
-        walk = _dp_cover._fewest_moves(lat, points, N)
+        walk = _dp_cover._fewest_moves(_dp_cover._Legs(lat, points, N), N)
         covered = set()
         for plan in oracle.legal_plans(inst.to_dict()):
             at = [lat.index(x, y) for x, y in plan["positions"]]

@@ -12,7 +12,6 @@ independently; where both prove optimality their values must agree, or certifica
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import hashlib
 import json
 import os
@@ -262,14 +261,26 @@ RESULT_FIELDS = ("method", "status", "bound", "gap", "runtime_s", "metrics", "so
 
 
 def _check_spelling(result: dict[str, Any], source: str) -> None:
-    """Other fields are a submitter's own (a method's name, a seed), but one spelled like a
-    field bench score reads is a typo that would switch off what it asks ("vaule": the check
-    of the stated value)."""
+    """Other fields are a submitter's own (a method's name, a seed, ``instance_name``), but one
+    spelled like a field bench score reads, one edit from it and not containing it, is a typo
+    that would switch off what it asks ("vaule": the check of the stated value)."""
     for key in result:
-        if key not in SUBMISSION_FIELDS + RESULT_FIELDS:
-            near = difflib.get_close_matches(str(key), SUBMISSION_FIELDS, n=1, cutoff=0.75)
-            if near:
-                raise OptionError(f"{source}: {show(key)}: unknown field; did you mean {near[0]}?")
+        if key in SUBMISSION_FIELDS + RESULT_FIELDS or not isinstance(key, str):
+            continue
+        for known in SUBMISSION_FIELDS:
+            if key.lower() == known or (known not in key.lower() and _edits(key.lower(), known) <= 1):
+                raise OptionError(f"{source}: {show(key)}: unknown field; did you mean {known}?")
+
+
+def _edits(a: str, b: str) -> int:
+    """Damerau-Levenshtein distance (adjacent swaps count one): "vaule" is one from "value"."""
+    d = [[i + j if i * j == 0 else 0 for j in range(len(b) + 1)] for i in range(len(a) + 1)]
+    for i in range(1, len(a) + 1):
+        for j in range(1, len(b) + 1):
+            d[i][j] = min(d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1]))
+            if i > 1 and j > 1 and a[i - 1] == b[j - 2] and a[i - 2] == b[j - 1]:
+                d[i][j] = min(d[i][j], d[i - 2][j - 2] + 1)
+    return d[len(a)][len(b)]
 
 
 def behind(objective: str, value: float, best_known: float) -> float:

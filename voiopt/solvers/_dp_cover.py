@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from voiopt import _grid
 from voiopt import lattice as lattice_mod
 from voiopt.instance import Instance
 from voiopt.solvers._dp_shared import Tables
@@ -43,9 +44,10 @@ def bound(instance: Instance, tab: Tables) -> float:
     points = np.flatnonzero(lat.in_range.any(axis=0) & ~lat.blocked)
     if len(points) == 0 or N > MAX_SENSORS or len(points) > MAX_POINTS or 2.0 ** N * len(points) ** 2 > MAX_WORK:
         return np.inf
-    if _greedy_cover(lat, points) <= lat.budget:  # every set is covered: nothing to bound
+    legs = _Legs(lat, points, N)
+    if _greedy_cover(legs) <= lat.budget:  # every set is covered: nothing to bound
         return np.inf
-    walk = _fewest_moves(lat, points, N)
+    walk = _fewest_moves(legs, N)
     idle = tab.W[np.arange(N), tab.initial_rank.astype(np.int64), 1:]  # (N, T): each sensor never uploaded
     worth = idle.sum(axis=1) if tab.mode == core.SUM else idle.min(axis=1)
     mask = 0
@@ -56,64 +58,56 @@ def bound(instance: Instance, tab: Tables) -> float:
     return np.inf
 
 
-def _moves(lat: lattice_mod.Lattice, points: np.ndarray) -> np.ndarray:
-    """(len(points), len(points)) fewest moves between the points (inf where blocked off)."""
-    d = np.array([lat.steps_from(int(p))[points] for p in points], dtype=float)
-    d[d < 0] = np.inf
-    return d
+class _Legs:
+    """The points in range of some sensor: the fewest moves between them (inf where blocked
+    off), from start to each, from each to the end (0 without one), and the bit mask of the
+    sensors in range of each."""
+
+    def __init__(self, lat: lattice_mod.Lattice, points: np.ndarray, N: int):
+        self.between = np.array([lat.steps_from(int(p))[points] for p in points], dtype=float)
+        self.start = lat.from_start[points].astype(float)
+        for a in (self.between, self.start):
+            a[(a < 0) | (a >= _grid.UNREACHABLE)] = np.inf
+        self.home = lat.to_end[points].astype(float) if lat.end >= 0 else np.zeros(len(points))
+        self.home_from_start = float(lat.to_end[lat.start]) if lat.end >= 0 else 0.0
+        bits = (1 << np.arange(N, dtype=np.int64))[:, None]
+        self.cover = (lat.in_range[:, points].astype(np.int64) * bits).sum(axis=0)
 
 
-def _home(lat: lattice_mod.Lattice, points: np.ndarray) -> np.ndarray:
-    """Moves still to make from each point: to the end, or none without one."""
-    return lat.to_end[points].astype(float) if lat.end >= 0 else np.zeros(len(points))
-
-
-def _covers(lat: lattice_mod.Lattice, points: np.ndarray, N: int) -> np.ndarray:
-    """Bit mask of the sensors in range of each point."""
-    bits = (1 << np.arange(N, dtype=np.int64))[:, None]
-    return (lat.in_range[:, points].astype(np.int64) * bits).sum(axis=0)
-
-
-def _fewest_moves(lat: lattice_mod.Lattice, points: np.ndarray, N: int) -> np.ndarray:
+def _fewest_moves(legs: _Legs, N: int) -> np.ndarray:
     """walk[S]: the fewest moves of a walk from start that stands in the range of every sensor
     of S, then goes to the end (Held-Karp over the sets and the point last stood on). A point
     covers every sensor in its range at once; moves between points are fewest-move ones, so a
     walk need not stop anywhere else."""
-    d, home, cover = _moves(lat, points), _home(lat, points), _covers(lat, points, N)
-    start = lat.from_start[points].astype(float)
-    start[start < 0] = np.inf
-    at = np.full((1 << N, len(points)), np.inf)  # at[S, j]: fewest moves to stand on j having covered S
-    np.minimum.at(at, (cover, np.arange(len(points))), start)
+    n = len(legs.start)
+    at = np.full((1 << N, n), np.inf)  # at[S, j]: fewest moves to stand on j having covered S
+    np.minimum.at(at, (legs.cover, np.arange(n)), legs.start)
     for mask in range(1 << N):  # a step only adds sensors: every set is final before it is read
         row = at[mask]
         if np.isinf(row).all():
             continue
-        onward = (row[:, None] + d).min(axis=0)
-        np.minimum.at(at, (mask | cover, np.arange(len(points))), onward)
-    best = (at + home[None, :]).min(axis=1)  # covered exactly S, then home
-    best[0] = min(best[0], float(lat.to_end[lat.start]) if lat.end >= 0 else 0.0)  # the empty set: straight home
+        onward = (row[:, None] + legs.between).min(axis=0)
+        np.minimum.at(at, (mask | legs.cover, np.arange(n)), onward)
+    best = (at + legs.home[None, :]).min(axis=1)  # covered exactly S, then home
+    best[0] = min(best[0], legs.home_from_start)  # the empty set: straight home
     for bit in range(N):  # a walk that covers more covers S too: the least over supersets
         has = (np.arange(1 << N) >> bit) & 1 == 1
         best[~has] = np.minimum(best[~has], best[has])
     return best
 
 
-def _greedy_cover(lat: lattice_mod.Lattice, points: np.ndarray) -> float:
+def _greedy_cover(legs: _Legs) -> float:
     """Moves of one walk that covers every sensor that has a point in range: from start to the
     nearest point that covers a sensor not yet covered, and so on, then home. An upper bound
     on the fewest: when it fits the budget, every set is covered."""
-    N = lat.in_range.shape[0]
-    d, home, cover = _moves(lat, points), _home(lat, points), _covers(lat, points, N)
-    want = int(np.bitwise_or.reduce(cover))
-    here = lat.from_start[points].astype(float)
-    here[here < 0] = np.inf
-    got, total = 0, 0.0
+    want = int(np.bitwise_or.reduce(legs.cover))
+    here, got, total, k = legs.start, 0, 0.0, -1
     while got != want:
-        useful = (cover & ~got) != 0
-        k = int(np.argmin(np.where(useful, here, np.inf)))
-        if not np.isfinite(here[k]):
+        onward = np.where((legs.cover & ~got) != 0, here, np.inf)  # to a point that covers more
+        k = int(np.argmin(onward))
+        if not np.isfinite(onward[k]):  # the sensors left are walled off from here
             return np.inf
         total += here[k]
-        got |= int(cover[k])
-        here = d[k]
-    return total + float(home[k]) if want else 0.0
+        got |= int(legs.cover[k])
+        here = legs.between[k]
+    return total + (float(legs.home[k]) if k >= 0 else legs.home_from_start)

@@ -16,6 +16,7 @@ import math
 import os
 import re
 from dataclasses import dataclass, field
+from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
 import numpy as np
@@ -87,10 +88,11 @@ class Read:
     stated: float | None = None
     declared: int | None = None
     listed: int = 0
+    rounding: dict[str, float] = field(default_factory=dict)  # half a unit of each value's last printed digit
+    stated_rounding: float = 0.0
 
 
 _OBJECTIVE = re.compile(r"^#?\s*objective(?:\s+value)?\s*[:=]?\s+(\S+)$", re.IGNORECASE)  # HiGHS, SCIP, Gurobi
-_XML = re.compile(r'(\w+)="([^"]*)"')  # CPLEX's XML: <variable name="x_t0_p2" index="0" value="1"/>
 _COLUMN = re.compile(r"^[xy]_(?:i\d+_)?t\d+_p\d+$")  # a path column's name, of this instance or not
 
 
@@ -101,6 +103,32 @@ def read_values(solution: str | os.PathLike, in_model: set[str]) -> Read:
     p = _existing(solution, "SOLUTION")
     if p.stat().st_size > 8 * MAX_JSON_BYTES:
         raise OptionError(f"SOLUTION: {solution}: larger than {8 * MAX_JSON_BYTES} bytes")
+    with open(p, "rb") as f:
+        xml = f.read(1024).lstrip().startswith(b"<")
+    return _read_xml(p, in_model) if xml else _read_lines(p, in_model)
+
+
+def _read_xml(p: Path, in_model: set[str]) -> Read:
+    """CPLEX's XML: ``<header ... objectiveValue="..."/>`` and ``<variable name= value=/>``,
+    attributes on one line or on several."""
+    from xml.etree.ElementTree import ParseError, iterparse
+
+    out = Read()
+    try:
+        for _, element in iterparse(p, events=("end",)):
+            if element.tag == "header" and "objectiveValue" in element.attrib:
+                out.stated = _number(element.attrib["objectiveValue"], "objectiveValue")
+                out.stated_rounding = _half_unit(element.attrib["objectiveValue"])
+            elif element.tag == "variable" and "name" in element.attrib and "value" in element.attrib:
+                _take(out, element.attrib["name"], element.attrib["value"], in_model, None)
+            element.clear()
+    except ParseError as e:
+        raise OptionError(f"SOLUTION: {p}: not well-formed XML ({e})") from None
+    return out
+
+
+def _read_lines(p: Path, in_model: set[str]) -> Read:
+    """HiGHS's raw file, or ``name value`` lines (SCIP, Gurobi)."""
     out, section = Read(), None
     with open(p, encoding="utf-8", errors="replace") as f:
         for line in f:
@@ -114,16 +142,10 @@ def read_values(solution: str | os.PathLike, in_model: set[str]) -> Read:
                 section, words = "columns", text.split()
                 out.declared = int(words[2]) if len(words) > 2 and words[2].isdigit() else None
                 continue
-            if text.startswith("<"):
-                fields = dict(_XML.findall(text))
-                if text.startswith("<header") and "objectiveValue" in fields:
-                    out.stated = _number(fields["objectiveValue"], "objectiveValue")
-                if text.startswith("<variable") and "name" in fields and "value" in fields:
-                    _take(out, fields["name"], fields["value"], in_model, section)
-                continue
             found = _OBJECTIVE.match(text)
             if found and section is None:
                 out.stated = _number(found.group(1), "objective value", strict=False)
+                out.stated_rounding = _half_unit(found.group(1))
                 continue
             parts = text.split()
             if len(parts) >= 2 and section != "rows":
@@ -139,7 +161,18 @@ def _take(out: Read, name: str, value: str, in_model: set[str], section) -> None
     if name in out.values:
         raise OptionError(f"SOLUTION: {name}: given twice")
     out.values[name] = _number(value, name)
+    out.rounding[name] = _half_unit(value)
     out.listed += section == "columns"
+
+
+def _half_unit(text: str) -> float:
+    """Half a unit in the last digit ``text`` prints: how far the value it was printed from may
+    lie (0.5 for "1", 5e-07 for "0.123457", 5 for "1.23457e+06")."""
+    try:
+        exponent = Decimal(text.strip()).as_tuple().exponent
+    except InvalidOperation:
+        return 0.0
+    return 0.5 * 10.0 ** exponent if isinstance(exponent, int) else 0.0
 
 
 def _number(text: str, what: str, strict: bool = True) -> float | None:
@@ -160,16 +193,17 @@ def _check_whole(read: Read, model: Model, solution) -> None:
     if read.declared is not None and read.listed != read.declared:
         raise OptionError(f"SOLUTION: {solution}: its header announces {read.declared} columns, but {read.listed} "
                           "follow: is the file cut short?")
-    if read.stated is not None:
+    if read.stated is not None:  # within what the printed digits allow, and a hair for the sums
         terms = [c * read.values.get(n, 0.0) for n, c in model.cost.items()]
         given = model.offset + math.fsum(terms)
         scale = max(abs(read.stated), math.fsum(abs(t) for t in terms), 1e-300)
-        if abs(given - read.stated) > OBJECTIVE_RTOL * scale:
+        printed = read.stated_rounding + math.fsum(abs(c) * read.rounding.get(n, 0.0) for n, c in model.cost.items())
+        if abs(given - read.stated) > printed + OBJECTIVE_RTOL * scale:
             raise OptionError(f"SOLUTION: {solution}: states the objective value {read.stated:.10g}, but its columns "
                               f"give {given:.10g} under MODEL: is the file cut short, or of another model?")
 
 
-OBJECTIVE_RTOL = 1e-6  # the stated objective against the one its values give: files round their values
+OBJECTIVE_RTOL = 1e-7  # beyond the printed digits' rounding: the solver's own sums against ours
 
 
 INTEGRAL = 1e-5  # how far from 0 or 1 an x or y value may be: Gurobi's and CPLEX's default integrality tolerance
