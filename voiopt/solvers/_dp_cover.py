@@ -33,23 +33,26 @@ MAX_POINTS = 1000  # points in range of some sensor: their table of moves is poi
 
 def bound(instance: Instance, tab: Tables) -> float:
     """The cover bound in the kernels' (maximised) units; +inf where every set is covered by
-    some walk, with several robots, or where the exact programme would cost too much (over
-    MAX_WORK, MAX_SENSORS or MAX_POINTS)."""
+    some walk, or with several robots. Where the exact programme would cost too much (over
+    MAX_WORK, MAX_SENSORS or MAX_POINTS), only the sets of one sensor: the stranded ones."""
     from voiopt.solvers import _dp_core as core
 
     if instance.fleet:
         return np.inf
     lat = lattice_mod.build(instance)
     N = instance.n_sensors
+    idle = tab.W[np.arange(N), tab.initial_rank.astype(np.int64), 1:]  # (N, T): each sensor never uploaded
+    worth = idle.sum(axis=1) if tab.mode == core.SUM else idle.min(axis=1)
     points = np.flatnonzero(lat.in_range.any(axis=0) & ~lat.blocked)
-    if len(points) == 0 or N > MAX_SENSORS or len(points) > MAX_POINTS or 2.0 ** N * len(points) ** 2 > MAX_WORK:
-        return np.inf
+    if N > MAX_SENSORS or len(points) > MAX_POINTS or 2.0 ** N * len(points) ** 2 > MAX_WORK:
+        alone = lattice_mod.unservable_sensors(instance) + lattice_mod.stranded_sensors(instance)  # sets of one
+        return float(worth[alone].min()) if alone else np.inf
+    if len(points) == 0:  # no sensor can ever upload: every plan is the idle plan's value
+        return float(worth.min())
     legs = _Legs(lat, points, N)
     if _greedy_cover(legs) <= lat.budget:  # every set is covered: nothing to bound
         return np.inf
     walk = _fewest_moves(legs, N)
-    idle = tab.W[np.arange(N), tab.initial_rank.astype(np.int64), 1:]  # (N, T): each sensor never uploaded
-    worth = idle.sum(axis=1) if tab.mode == core.SUM else idle.min(axis=1)
     mask = 0
     for i in np.argsort(worth, kind="stable"):  # S_k: the k sensors of the smallest worths
         mask |= 1 << int(i)
