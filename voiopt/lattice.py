@@ -142,8 +142,8 @@ def stranded_sensors(instance: Instance) -> list[int]:
     stood = None
     for k in range(instance.n_robots):
         lat = build(instance.robot(k))
-        d0, d1 = lat.from_start, lat.to_end  # some slot t has d0 <= t <= T - 1 - d1, within the budget
-        ok = (d0 + d1 <= instance.horizon - 1) & (d0 + d1 <= lat.budget) & ~lat.blocked
+        # some slot t has d0 <= t <= T - 1 - d1, within the budget (which is at most T - 1)
+        ok = (lat.from_start + lat.to_end <= lat.budget) & ~lat.blocked
         stood = ok if stood is None else stood | ok
     reach = (lat.in_range & stood[None, :]).any(axis=1)
     return [i for i in range(instance.n_sensors) if i not in never and not reach[i]]

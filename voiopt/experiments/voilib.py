@@ -113,26 +113,28 @@ def certificates() -> dict[str, Any]:
     return _CACHE["data"]
 
 
-def certified(inst: Instance, objective: str) -> float | None:
-    """The proven optimum of a VoI-Lib instance (matched by hash), or None if the instance is
-    not in the library or its certificate is still an interval."""
+def certificate(inst: Instance, objective: str) -> dict[str, Any] | None:
+    """A VoI-Lib instance's certificate for ``objective`` (matched by hash), or None if the
+    instance is not in the library."""
     digest = instance_hash(inst)
     for entry in certificates()["instances"].values():
         if entry["sha256"] == digest:
-            cert = entry["certificates"].get(objective)
-            return cert["value"] if cert is not None and cert["status"] == "optimal" else None
+            return entry["certificates"].get(objective)
     return None
+
+
+def certified(inst: Instance, objective: str) -> float | None:
+    """The proven optimum of a VoI-Lib instance, or None if the instance is not in the library
+    or its certificate is still an interval."""
+    cert = certificate(inst, objective)
+    return cert["value"] if cert is not None and cert["status"] == "optimal" else None
 
 
 def open_certificate(inst: Instance, objective: str) -> str | None:
     """The interval of a VoI-Lib instance's open certificate (None if the instance is not in
     the library, or its certificate is optimal)."""
-    digest = instance_hash(inst)
-    for entry in certificates()["instances"].values():
-        if entry["sha256"] == digest:
-            cert = entry["certificates"].get(objective)
-            return show_certificate(cert) if cert is not None and cert["status"] != "optimal" else None
-    return None
+    cert = certificate(inst, objective)
+    return show_certificate(cert) if cert is not None and cert["status"] != "optimal" else None
 
 
 def freeze(out_dir: str | os.PathLike) -> list[Path]:
