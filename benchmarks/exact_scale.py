@@ -9,7 +9,8 @@ One process, networks solved one after another, on one core unless ``--threads K
     t50    N = 4, T = 50, 10 x 10, 20 networks, 60 s  >= 18 certified
     n8     N = 8, T = 30, 5 x 5, 20 networks, 60 s    median proven gap < 1 %
 
-The frontier (issue 15; targets for mean-min-voi, 60 s per network):
+The frontier (issue 15; targets for mean-min-voi, 60 s per network, one process per network on
+this 2-core machine, so ``--threads 2``; docs/dp.md "The frontier"):
 
     n10    N = 10, T = 30, 5 x 5, 8 networks
     n12    N = 12, T = 30, 5 x 5, 6 networks             >= 5 certified
