@@ -242,6 +242,8 @@ def test_the_default_method_is_dp_and_milp_for_three_robots(capsys, tmp_path):
     (["bench", "certify", "--work", "{tmp}/w", "--dask-scheduler", "tcp://nohost.invalid:8786", "--into", "{tmp}"],
      "--dask-scheduler: 'tcp://nohost.invalid:8786' is no scheduler address"),  # a name that never resolves
     (["bench", "certify", "--work", "{tmp}/w/v", "--only", "nosuch"], "--only: 'nosuch' is no VoI-Lib"),
+    (["bench", "certify", "--work", "{tmp}/w", "--threads", "0", "--only", "case-study", "--into", "{tmp}"],
+     "--threads: must be an integer >= 1, got 0"),
     (["bench", "certify", "--work", "{tmp}/w", "--time-limit", "0", "--only", "case-study", "--into", "{tmp}"],
      "--time-limit: must be a number of seconds > 0, got 0.0"),
     (["bench", "certify", "--work", "{tmp}/w", "--into", "{tmp}/a-file", "--only", "case-study"],

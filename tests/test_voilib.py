@@ -249,8 +249,11 @@ def test_hostile_submissions_are_one_line_errors_naming_the_file(capsys, tmp_pat
 def test_certify_only_updates_those_entries_and_keeps_the_others(tmp_path, capsys):
     (tmp_path / "certificates.json").write_text(json.dumps(CERTS))
     code, _, _ = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
-                     "--only", "paper-n3-t10-000", "--quiet", "--time-limit", "10")
+                     "--only", "paper-n3-t10-000", "--quiet", "--time-limit", "10", "--threads", "2")
     assert code == 0
+    for objective in OBJECTIVES:  # each run was given the threads
+        dp_run = json.loads((tmp_path / "work" / f"paper-n3-t10-000__{objective}__dp.json").read_text())
+        assert dp_run["solver"]["options"]["threads"] == 2
     made = json.loads((tmp_path / "certificates.json").read_text())
     assert list(made["instances"]) == list(CERTS["instances"])  # every instance, in the library's order
     for name, entry in CERTS["instances"].items():

@@ -68,7 +68,8 @@ def cmd_bench_certify(args) -> int:
 
     path = voilib.certify(args.work, time_limit=args.time_limit, memory_limit=args.memory_limit,
                           workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
-                          into=args.into, only=None if args.only is None else args.only.split(","))
+                          into=args.into, only=None if args.only is None else args.only.split(","),
+                          threads=args.threads)
     out.print(f"wrote {path}", markup=False)
     return 0
 
@@ -106,6 +107,8 @@ def add_commands(sub, command, add_executor_options) -> None:
     s.add_argument("--into", default=None, metavar="DIR",
                    help="where certificates.json goes (default: the package's VoI-Lib folder)")
     s.add_argument("--only", default=None, metavar="NAME,...", help="certify these instances alone")
+    s.add_argument("--threads", type=int, default=1, metavar="K",
+                   help="per run: dp's chunks expanded at once and the MILP's HiGHS threads (default 1)")
     add_executor_options(s)
     s.add_argument("--quiet", action="store_true", help="no progress bar")
 

@@ -343,17 +343,20 @@ def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dic
 
 def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_limit: float | None = None,
             workers: int = 1, dask_scheduler: str | None = None, progress: bool = False,
-            into: str | os.PathLike | None = None, only: list[str] | None = None) -> Path:
+            into: str | os.PathLike | None = None, only: list[str] | None = None, threads: int = 1) -> Path:
     """Run dp and the MILP on every instance (or those named in ``only``) and objective
     (results kept in ``work_dir``, so an interrupted run resumes, on a process pool or Dask)
     and write certificates.json into ``into`` (default: the package's VoI-Lib folder, in a
     source checkout). With ``only``, the other instances' entries of an existing
-    certificates.json there are kept (those whose instance is unchanged)."""
+    certificates.json there are kept (those whose instance is unchanged). ``threads`` is each
+    run's: dp's chunks expanded at once and the MILP's HiGHS threads (``workers`` times
+    ``threads`` cores in all)."""
     from voiopt.experiments.runner import check_scheduler, check_workers, method_tasks, run_tasks
     from voiopt.result import load_result
-    from voiopt.solvers.base import check_limits
+    from voiopt.solvers.base import check_limits, check_threads
 
     check_limits(time_limit, memory_limit)  # before any run: a bad limit would fail every one of them
+    check_threads(threads)
     check_workers(workers)
     check_scheduler(dask_scheduler)
     every = lib = instances()
@@ -371,7 +374,7 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     for name, inst in lib.items():
         for objective in OBJECTIVES:
             ts = method_tasks(inst, f"voilib:{name}", CERTIFYING_METHODS, objective, work, group=name,
-                              time_limit=time_limit, memory_limit=memory_limit)
+                              time_limit=time_limit, memory_limit=memory_limit, threads=threads)
             ts = [dataclasses.replace(t, out_path=str(work / f"{safe_name(name)}__{objective}__{t.method}.json"))
                   for t in ts]  # one file per (instance, objective, method)
             tasks += ts
