@@ -36,7 +36,7 @@ from voiopt.plan import Plan
 from voiopt.result import OPTIMAL_RTOL, Result, agrees, finite
 from voiopt.simulate import simulate
 
-VERSION = "1.1"  # a certificate changes only with a new version of the library (1.1: the cover bound)
+VERSION = "1.2"  # a certificate changes only with a new version of the library (1.1: the cover bound; 1.2: two threads)
 DATA = resources.files("voiopt") / "data" / "voilib"
 CERTIFYING_METHODS = ("dp", "milp")
 
