@@ -161,10 +161,16 @@ def test_an_action_is_an_integer_not_anything_int_accepts(case_study):
         env.step(good)
 
 
-def test_the_normalised_reward_on_an_open_certificate_is_refused_not_solved_for_ever():
+def test_the_normalised_reward_on_an_open_certificate_is_refused_not_solved_for_ever(monkeypatch):
+    import copy
+
     from voiopt.experiments import voilib
 
-    inst = voilib.instances()["factory-n12-t100-000"]  # mean-min-voi open in VoI-Lib 1.1
+    inst = voilib.instances()["factory-n12-t100-000"]
+    shipped = copy.deepcopy(voilib.certificates())  # every certificate of VoI-Lib 1.2 is optimal; 1.1 had this one open
+    shipped["instances"][inst.name]["certificates"]["mean-min-voi"].update(
+        status="bounded", value=38459.713929616475, bound=38459.74135562068)
+    monkeypatch.setattr(voilib, "certificates", lambda: shipped)
     with pytest.raises(OptionError, match="certificate of factory-n12-t100-000 is open"):
         voienv.VoIEnv(inst, reward_mode="normalised")  # up front, not at the first step
     env = voienv.VoIEnv(inst)  # the paper's reward needs no optimum
