@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import itertools
 
 import numpy as np
 import pytest
@@ -153,6 +154,7 @@ def test_threads_keep_every_label_plan_and_bound(monkeypatch):
     assert one.plan == two.plan and one.value == two.value and one.bound == two.bound
     assert one.solver["passes"] == two.solver["passes"] and one.solver["labels"] == two.solver["labels"]
     assert [s["labels"] for s in one.solver["subsets"]] == [s["labels"] for s in two.solver["subsets"]]
+    monkeypatch.setattr(_dp_search, "CHUNK_WORK", 2000)  # its layers cut into many chunks, not left whole as small
     inst = voiopt.generate(6, 30, seed=5)  # a bounded pass from just below the optimum
     tab = dp.build_tables(inst, "mean-min-voi")
     tab.with_tour_bound()
@@ -163,6 +165,18 @@ def test_threads_keep_every_label_plan_and_bound(monkeypatch):
         assert (p.labels, p.generated, p.value) == (passes[0].labels, passes[0].generated, passes[0].value)
         assert all((a == b).all() for a, b in zip(p.plan, passes[0].plan, strict=True))
     assert (one.solver["options"]["threads"], two.solver["options"]["threads"]) == (1, 2)
+
+
+def test_a_small_layer_stays_one_call_whatever_the_threads():
+    """Splitting a layer of little work into 4 x threads calls cost more than it saved (a beam of
+    2 took twice as long on two threads); a layer of more than CHUNK_WORK gives each about four."""
+    small = np.full(50, 1000)  # 50,000 (label, upload) pairs in all
+    assert _dp_search._chunks(small, 1) == _dp_search._chunks(small, 2) == [(0, 50)]
+    large = np.full(400, 1000)
+    chunks = _dp_search._chunks(large, 2)
+    assert len(chunks) == 8 and chunks[0][0] == 0 and chunks[-1][1] == 400
+    assert all(hi == lo for (_, hi), (lo, _) in itertools.pairwise(chunks))
+    assert _dp_search._chunks(large, 1) == [(0, 100), (100, 200), (200, 300), (300, 400)]
 
 
 def test_threads_stop_at_the_time_limit_and_are_checked():
