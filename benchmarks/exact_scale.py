@@ -44,8 +44,10 @@ import sys
 import time
 
 import voiopt
+from voiopt.errors import OptionError
 from voiopt.objectives import OBJECTIVES
 from voiopt.solvers import dp
+from voiopt.solvers.base import check_threads
 
 SETTINGS = {
     "paper": dict(n_sensors=4, horizon=30, size=5.0, networks=40, time_limit=None),
@@ -122,6 +124,10 @@ def main(argv: list[str] | None = None) -> int:
     for o in objectives:
         if o not in OBJECTIVES:
             ap.error(f"--objectives: unknown objective {o!r}")
+    try:
+        check_threads(args.threads)
+    except OptionError as e:
+        ap.error(str(e))
 
     t = time.perf_counter()
     for o in OBJECTIVES:  # compile (or load the numba cache) before anything is timed

@@ -243,7 +243,11 @@ def test_the_default_method_is_dp_and_milp_for_three_robots(capsys, tmp_path):
      "--dask-scheduler: 'tcp://nohost.invalid:8786' is no scheduler address"),  # a name that never resolves
     (["bench", "certify", "--work", "{tmp}/w/v", "--only", "nosuch"], "--only: 'nosuch' is no VoI-Lib"),
     (["bench", "certify", "--work", "{tmp}/w", "--threads", "0", "--only", "case-study", "--into", "{tmp}"],
-     "--threads: must be an integer >= 1, got 0"),
+     "--threads: must be an integer from 1 to 256, got 0"),
+    (["bench", "certify", "--work", "{tmp}/w", "--threads", "1.5", "--only", "case-study", "--into", "{tmp}"],
+     "argument --threads: must be an integer, got '1.5'"),  # worded as solve's --threads
+    (["solve", CASE, "--method", "milp", "--threads", "2147483648", "-o", "{tmp}/r.json"],
+     "--threads: must be an integer from 1 to 256, got 2147483648"),  # HiGHS ignored it; the result recorded it
     (["bench", "certify", "--work", "{tmp}/w", "--time-limit", "0", "--only", "case-study", "--into", "{tmp}"],
      "--time-limit: must be a number of seconds > 0, got 0.0"),
     (["bench", "certify", "--work", "{tmp}/w", "--into", "{tmp}/a-file", "--only", "case-study"],

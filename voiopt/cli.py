@@ -451,7 +451,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("instance", nargs="?", default=None, metavar="INSTANCE",
                    help="(default: the shipped case study, instances/case-study.json)")
 
-    add_bench_commands(sub, _command, _add_executor_options)
+    add_bench_commands(sub, _command, _add_executor_options, _count)
     return p
 
 

@@ -86,7 +86,7 @@ def cmd_import_solution(args) -> int:
     return 0
 
 
-def add_commands(sub, command, add_executor_options) -> None:
+def add_commands(sub, command, add_executor_options, count) -> None:
     """The parsers of ``bench`` and ``import-solution``."""
     b = command(sub, "bench", "VoI-Lib: certified instances to score any method against", None)
     bench = b.add_subparsers(dest="bench_command", metavar="ACTION", required=True)
@@ -107,7 +107,7 @@ def add_commands(sub, command, add_executor_options) -> None:
     s.add_argument("--into", default=None, metavar="DIR",
                    help="where certificates.json goes (default: the package's VoI-Lib folder)")
     s.add_argument("--only", default=None, metavar="NAME,...", help="certify these instances alone")
-    s.add_argument("--threads", type=int, default=1, metavar="K",
+    s.add_argument("--threads", type=count, default=1, metavar="K",
                    help="per run: dp's chunks expanded at once and the MILP's HiGHS threads (default 1)")
     add_executor_options(s)
     s.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -184,8 +184,8 @@ def test_threads_stop_at_the_time_limit_and_are_checked():
     r = dp.solve(inst, "mean-min-voi", time_limit=0.5, threads=2)
     assert r.status == "time_limit" and r.runtime_s < 0.5 + 1.0 and r.bound >= r.value
     assert voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value
-    for bad in (0, 1.5, True):
-        with pytest.raises(OptionError, match="--threads: must be an integer >= 1"):
+    for bad in (0, 1.5, True, 257):
+        with pytest.raises(OptionError, match="--threads: must be an integer from 1 to 256"):
             dp.solve(inst, "mean-min-voi", threads=bad)
     fleet = voiopt.generate(3, 6, width=2.0, height=2.0, seed=0, robots=2)
     with pytest.raises(OptionError, match="--threads: an option of the one-robot dp"):

@@ -37,9 +37,13 @@ def check_limits(time_limit: float | None, memory_limit: float | None) -> None:
         raise OptionError(f"--memory-limit: must be a number of GB > 0, got {memory_limit!r}")
 
 
+MAX_THREADS = 256  # far past any machine's use here; HiGHS refuses >= 2**31 and misbehaves at 1e5 (over its limit)
+
+
 def check_threads(threads: int | None) -> None:
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
-        raise OptionError(f"--threads: must be an integer >= 1, got {threads!r}")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                or not 1 <= threads <= MAX_THREADS):
+        raise OptionError(f"--threads: must be an integer from 1 to {MAX_THREADS}, got {threads!r}")
 
 
 def require_memory(nbytes: float, memory_limit: float | None, what: str) -> None:
