@@ -204,10 +204,17 @@ def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys)
                 CERTS["instances"][name]["certificates"][objective]
             assert (got["status"], got["value"]) == (shipped["status"], shipped["value"])
     stamps = {p: p.stat().st_mtime_ns for p in (tmp_path / "work").iterdir()}
-    assert len(stamps) == len(names) * len(OBJECTIVES) * 2 + 1  # the results and instances.sha256
+    assert len(stamps) == len(names) * len(OBJECTIVES) * 2 + 2  # the results, instances.sha256 and run.json
     run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path), "--only",
         ",".join(names), "--quiet")
     assert {p: p.stat().st_mtime_ns for p in (tmp_path / "work").iterdir()} == stamps  # resumed: nothing re-run
+    for other in (["--time-limit", "120"], ["--threads", "2"]):  # another run's settings: not silently reused
+        code, out, err = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
+                             "--only", ",".join(names), "--quiet", *other)
+        line = one_line_error(err)
+        assert code == 2 and "--work: " in line and "holds a run with other settings" in line, line
+        assert other[0][2:].replace("-", "_") + " differs" in line, line
+    assert {p: p.stat().st_mtime_ns for p in (tmp_path / "work").iterdir()} == stamps
 
 
 @pytest.mark.parametrize("doc, message", [

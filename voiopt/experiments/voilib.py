@@ -345,13 +345,14 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
             workers: int = 1, dask_scheduler: str | None = None, progress: bool = False,
             into: str | os.PathLike | None = None, only: list[str] | None = None, threads: int = 1) -> Path:
     """Run dp and the MILP on every instance (or those named in ``only``) and objective
-    (results kept in ``work_dir``, so an interrupted run resumes, on a process pool or Dask)
+    (results kept in ``work_dir``, so an interrupted run resumes, on a process pool or Dask;
+    a ``work_dir`` made with another time limit, memory limit or threads is refused)
     and write certificates.json into ``into`` (default: the package's VoI-Lib folder, in a
     source checkout). With ``only``, the other instances' entries of an existing
     certificates.json there are kept (those whose instance is unchanged). ``threads`` is each
     run's: dp's chunks expanded at once and the MILP's HiGHS threads (``workers`` times
     ``threads`` cores in all)."""
-    from voiopt.experiments.runner import check_scheduler, check_workers, method_tasks, run_tasks
+    from voiopt.experiments.runner import check_manifest, check_scheduler, check_workers, method_tasks, run_tasks
     from voiopt.result import load_result
     from voiopt.solvers.base import check_limits, check_threads
 
@@ -370,6 +371,8 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     if target.is_dir():  # certificates.json can be written there (the package's own folder may be read-only)
         check_output_file(target / "certificates.json", "--into")
     work.mkdir(parents=True, exist_ok=True)
+    check_manifest(work, {"command": "bench certify", "version": VERSION, "time_limit": time_limit,
+                          "memory_limit": memory_limit, "threads": threads}, "--work")  # resume only the same runs
     tasks, plan = [], []
     for name, inst in lib.items():
         for objective in OBJECTIVES:
