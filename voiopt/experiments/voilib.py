@@ -352,7 +352,13 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     certificates.json there are kept (those whose instance is unchanged). ``threads`` is each
     run's: dp's chunks expanded at once and the MILP's HiGHS threads (``workers`` times
     ``threads`` cores in all)."""
-    from voiopt.experiments.runner import check_manifest, check_scheduler, check_workers, method_tasks, run_tasks
+    from voiopt.experiments.runner import (
+        check_manifest,
+        check_scheduler,
+        check_workers,
+        method_tasks,
+        run_tasks,
+    )
     from voiopt.result import load_result
     from voiopt.solvers.base import check_limits, check_threads
 
