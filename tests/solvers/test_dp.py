@@ -167,16 +167,18 @@ def test_threads_keep_every_label_plan_and_bound(monkeypatch):
     assert (one.solver["options"]["threads"], two.solver["options"]["threads"]) == (1, 2)
 
 
-def test_a_small_layer_stays_one_call_whatever_the_threads():
-    """Splitting a layer of little work into 4 x threads calls cost more than it saved (a beam of
-    2 took twice as long on two threads); a layer of more than CHUNK_WORK gives each about four."""
-    small = np.full(50, 1000)  # 50,000 (label, upload) pairs in all
-    assert _dp_search._chunks(small, 1) == _dp_search._chunks(small, 2) == [(0, 50)]
-    large = np.full(400, 1000)
-    chunks = _dp_search._chunks(large, 2)
-    assert len(chunks) == 8 and chunks[0][0] == 0 and chunks[-1][1] == 400
-    assert all(hi == lo for (_, hi), (lo, _) in itertools.pairwise(chunks))
-    assert _dp_search._chunks(large, 1) == [(0, 100), (100, 200), (200, 300), (300, 400)]
+def test_a_small_layer_is_not_cut_into_tiny_calls():
+    """Cutting every layer into 4 x threads calls made a beam of 2 (layers of a few hundred
+    labels) twice as slow on two threads: no call is cut below CHUNK_WORK / 16 pairs; a layer
+    of more than CHUNK_WORK still gives each thread about four."""
+    tiny = np.full(5, 1000)  # 5,000 (label, upload) pairs in all
+    assert _dp_search._chunks(tiny, 1) == _dp_search._chunks(tiny, 2) == [(0, 5)]
+    medium = _dp_search._chunks(np.full(30, 1000), 2)  # 30,000: calls of 6 points (6,000 pairs), not 8 of 3.75
+    assert medium == [(0, 6), (6, 12), (12, 18), (18, 24), (24, 30)]
+    large = _dp_search._chunks(np.full(400, 1000), 2)
+    assert len(large) == 8 and large[0][0] == 0 and large[-1][1] == 400
+    assert all(hi == lo for (_, hi), (lo, _) in itertools.pairwise(large))
+    assert _dp_search._chunks(np.full(400, 1000), 1) == [(0, 100), (100, 200), (200, 300), (300, 400)]
 
 
 def test_threads_stop_at_the_time_limit_and_are_checked():

@@ -33,11 +33,10 @@ class SearchOutcome:
 def _chunks(work: np.ndarray, threads: int) -> list[tuple[int, int]]:
     """Runs (q_lo, q_hi) of target points of about CHUNK_WORK (label, upload) pairs each (at
     least one point): one kernel call each. With threads, smaller ones, so that a slot gives
-    each thread about four to do; but a layer of at most CHUNK_WORK stays one call (on one
-    thread): splitting a small layer costs more in calls and threads than it saves (a beam of
-    2 on N = 6, T = 30 took 64 ms on two threads against 28 ms on one)."""
-    total = int(work.sum())
-    size = CHUNK_WORK if threads == 1 or total <= CHUNK_WORK else min(CHUNK_WORK, total // (4 * threads))
+    each thread about four to do, but none below CHUNK_WORK / 16: a tiny layer cut into
+    4 x threads calls costs more in calls and threads than it saves (a beam of 2 on N = 6,
+    T = 30 took 64 ms on two threads against 28 ms on one)."""
+    size = CHUNK_WORK if threads == 1 else min(CHUNK_WORK, max(CHUNK_WORK // 16, int(work.sum()) // (4 * threads)))
     chunks, q_lo = [], 0
     while q_lo < len(work):
         q_hi, _ = run_of(work, q_lo, size)
