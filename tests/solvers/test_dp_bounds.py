@@ -20,6 +20,7 @@ from voiopt.objectives import OBJECTIVES
 from voiopt.solvers import _dp_core as core
 from voiopt.solvers import _dp_subsets, dp
 from voiopt.solvers._dp_shared import build_tables
+from voiopt.solvers.base import idle_plan
 
 RTOL = 1e-9
 EXACT = 1e-12  # the rounding of two sums of the same terms (_dp_subsets.reaches)
@@ -179,18 +180,7 @@ def test_each_subset_solved_from_the_smaller_ones_is_the_brute_force_optimum_of_
     incumbents every subset runs its passes; with them (beams, greedy) a pass often starts from
     the optimum itself, where a pattern built at the incumbent must not serve a pass below it."""
     monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
-    monkeypatch.setattr(dp, "FAST_BUDGET", 1)
-    if not incumbents:  # nothing attains the bound before the passes
-        for name in ("QUICK_BEAM", "DEFAULT_BEAM"):
-            monkeypatch.setattr(dp, name, 0)
-        monkeypatch.setattr(dp, "_greedy_plan", lambda *args: None)
-    search = dp.search
-
-    def checked_search(tab, incumbent, **kw):  # a pattern serves only passes at or above its threshold
-        assert all(incumbent >= p.threshold for p in kw.get("patterns", ())), incumbent
-        return search(tab, incumbent, **kw)
-
-    monkeypatch.setattr(dp, "search", checked_search)
+    _without_cheap_incumbents(monkeypatch, not incumbents)
     near = checked = 0
     for k in range(10):  # 4 and 5 sensors: subsets of 2, 3 (and 4), each from the smaller ones
         inst = voiopt.generate(4 + k % 2, 5 + k % 3, width=2.0 + k % 2, height=2.0, seed=700 + k, name=f"grow-{k}")
@@ -324,6 +314,68 @@ def test_dp_through_the_pattern_databases_equals_the_brute_force(monkeypatch):
         assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
         built += sum(run["built"] for run in r.solver.get("patterns", []))
     assert built >= 5, built
+
+
+def _without_cheap_incumbents(monkeypatch, none: bool = True) -> None:
+    """dp's fast pass stopped at once, with (if ``none``) no beam or greedy incumbent before the
+    passes; and every pass checked: a pattern serves only passes at or above its threshold."""
+    monkeypatch.setattr(dp, "FAST_BUDGET", 1)
+    if none:
+        for name in ("QUICK_BEAM", "DEFAULT_BEAM"):
+            monkeypatch.setattr(dp, name, 0)
+        monkeypatch.setattr(dp, "_greedy_plan", lambda *args: None)
+    search = dp.search
+
+    def checked_search(tab, incumbent, **kw):
+        assert all(incumbent >= p.threshold for p in kw.get("patterns", ())), incumbent
+        return search(tab, incumbent, **kw)
+
+    monkeypatch.setattr(dp, "search", checked_search)
+
+
+@pytest.mark.parametrize("above", [False, True])
+def test_the_whole_adds_a_subsets_own_pass_and_equals_the_brute_force(monkeypatch, above):
+    """The whole's bounded passes may add the pattern of a subset's own complete pass
+    (dp._recorded) to that of the first subsets, in every pass at or above its threshold: they
+    must still end at the brute force's optimum. Subsets from 3 sensors and no cheap incumbents
+    send small networks down that path. With ``above`` the whole starts from the idle plan and
+    the subsets' plans are kept from it, so that its first pass runs at the midpoint above its
+    incumbent, with the subset's pattern: it finds the optimum there or proves it lower."""
+    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    _without_cheap_incumbents(monkeypatch)
+    cases = CASES
+    if above:
+        monkeypatch.setattr(dp, "PATTERN_SENSORS", 2)
+        relax = _dp_subsets.relax
+        monkeypatch.setattr(_dp_subsets, "relax", lambda instance, objective, tab, stop, offer, *rest: relax(
+            instance, objective, tab, stop, lambda plan, source: None, *rest))
+        cases = [voiopt.generate(4 + k % 2, 5 + k % 3, width=2.0 + k % 2, height=2.0, seed=700 + k, name=f"grow-{k}")
+                 for k in range(16)]
+    used = first = 0
+    for inst in cases:
+        r = dp.solve(inst, "mean-min-voi", fast_budget=1, beam=0, quick_beam=0,
+                     warm_start=idle_plan(inst) if above else None)
+        opt = _optimum(inst, "mean-min-voi")
+        assert r.status == "optimal" and abs(r.value - opt) <= RTOL * max(abs(opt), 1e-300), (inst.name, r.value, opt)
+        assert r.bound >= opt - EXACT * abs(opt), (inst.name, r.bound, opt)
+        mine = any(run["recorded"] and run["built"] for run in r.solver.get("patterns", []))
+        used += mine
+        first += mine and "bounded above the midpoint" in r.solver["passes"]
+    assert used >= 8 and first >= (3 if above else 0), (used, first)
+
+
+def test_a_patterns_futures_are_the_same_on_one_thread_or_several():
+    """from_layers computes a slot's futures in parts on several threads: the same values."""
+    from voiopt.solvers import _dp_pattern
+    from voiopt.stop import Stop
+
+    inst = voiopt.generate(12, 14, width=4.0, height=4.0, seed=31, name="futures")
+    tab = dp._pattern_tables(inst, "mean-min-voi")
+    layers: list = []
+    out = dp.search(tab, -np.inf, record=layers)
+    assert out.complete and max(len(x[1]) for x in layers) > 3 * 1024  # three parts in a slot
+    one, three = (_dp_pattern.from_layers(layers, tab, -np.inf, Stop(), threads) for threads in (1, 3))
+    assert all(np.array_equal(a, b) for a, b in zip(one.future, three.future, strict=True))
 
 
 def test_a_pattern_bounds_a_label_only_through_kept_labels_of_its_ranks_and_moves_left():

@@ -48,7 +48,7 @@ import numpy as np
 from voiopt._jit import njit
 from voiopt.instance import Instance
 from voiopt.solvers import _dp_subsets
-from voiopt.solvers._dp_shared import Tables, watched
+from voiopt.solvers._dp_shared import Tables, watched, watched_all
 
 
 @dataclass
@@ -99,7 +99,7 @@ def build(instance: Instance, objective: str, sensors: list[int], whole: Tables,
     out = search(tab, threshold, record=layers, stop=stop, threads=threads)
     if not out.complete:
         return None, out
-    own = from_layers(layers, tab, threshold, stop)
+    own = from_layers(layers, tab, threshold, stop, threads)
     return (None if own is None else own.within(sensors, whole)), out
 
 
@@ -113,6 +113,7 @@ class Recorded:
     layers: list[tuple]
     tab: Tables
     threshold: float
+    work: float = 0.0  # future_work: the scans its pattern's futures take
 
 
 def future_work(layers: list[tuple], tab: Tables) -> float:
@@ -130,20 +131,24 @@ def future_work(layers: list[tuple], tab: Tables) -> float:
     return work
 
 
-def from_layers(layers: list[tuple], tab: Tables, threshold: float, stop) -> Pattern | None:
+def from_layers(layers: list[tuple], tab: Tables, threshold: float, stop, threads: int = 1) -> Pattern | None:
     """The pattern of a complete pass over a network (``tab``) at ``threshold`` (internal units)
     that recorded its ``layers`` (``Recorded``): of all its sensors, as indices of its own.
-    None if the futures were stopped."""
+    None if the futures were stopped. A slot's labels are independent of one another, so its
+    futures are computed in ``threads`` parts at once, the same whatever ``threads`` is."""
     T = tab.up_rank.shape[0]
     futures: list[np.ndarray] = [np.empty(0)] * len(layers)
     nxt = (layers[0][0][:0], layers[0][2][:0], np.zeros_like(layers[0][4]), np.empty(0))
     for t in range(len(layers) - 1, -1, -1):
         ranks, acc, left, pos, off = layers[t]
-        futures[t] = watched(stop, _futures, t, T, ranks, acc, left, pos, tab.neighbors, tab.up_rank,
-                             tab.in_range_list, tab.in_range_count, tab.W, tab.to_end, tab.budget_lane, threshold,
-                             *nxt)
+        cuts = np.linspace(0, len(acc), max(1, min(threads, len(acc) // 1024 + 1)) + 1).astype(np.int64)
+        calls = [(t, T, ranks[lo:hi], acc[lo:hi], left[lo:hi], pos[lo:hi], tab.neighbors, tab.up_rank,
+                  tab.in_range_list, tab.in_range_count, tab.W, tab.to_end, tab.budget_lane, threshold, *nxt)
+                 for lo, hi in zip(cuts[:-1], cuts[1:], strict=True)]
+        parts = watched_all(stop, _futures, calls, threads)
         if stop.check() is not None:  # the stop is remembered: a kernel halted by it returned part of f
             return None
+        futures[t] = np.concatenate(parts) if len(parts) > 1 else parts[0]
         nxt = (ranks, left, off, futures[t])
     return Pattern(np.arange(tab.W.shape[0], dtype=np.int64), [x[0] for x in layers], [x[2] for x in layers],
                    [x[4] for x in layers], futures, tab.budget_lane, threshold,

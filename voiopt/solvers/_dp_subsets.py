@@ -40,13 +40,15 @@ class Known:
     indices: the least of their bounds (internal units; it bounds the larger one's optimum too),
     their records (``relax``), and the last complete pass of the last subset of that bound
     (``_dp_pattern.Recorded``, from which a pattern database is made), with that subset's
-    sensors. The solve leaves its own last complete pass in ``made``."""
+    sensors. The solve leaves its own last complete pass in ``made`` if its pattern is cheap
+    enough for the next subset, and in ``kept`` if it is for the whole (``dp._recorded``)."""
 
     bound: float
     runs: list[dict]
     recorded: object = None
     sensors: list[int] = field(default_factory=list)
     made: object = None
+    kept: object = None
 
 
 def applies(objective: str, n_sensors: int) -> bool:
@@ -94,12 +96,13 @@ def need_order(tab) -> list[int]:
 
 
 def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent, solve,
-          progress: bool = False) -> tuple[float, list[dict]]:
+          progress: bool = False) -> tuple[float, list[dict], list[tuple[list[int], object]]]:
     """The smallest bound (internal units) over a growing subset of the sensors, each subset
     solved by ``solve(subset, seconds, labels, warm_start, known)`` (dp; ``Known``) within the
     subsets' budget (+inf if none finished in it), and one record per subset solved: its
     sensors, status, seconds, labels, bound (the objective's units) and the names of its
-    passes, for ``solver.subsets``.
+    passes, for ``solver.subsets``; and the complete passes the subsets left for the whole
+    (``Known.kept``: the last of each subset that left one), with their sensors.
 
     The subset starts with the sensors that ``need_order`` puts first. dp solves it from the
     best plan so far (``incumbent()``: plan or None, and its internal value) restricted to it,
@@ -113,7 +116,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
     ``progress`` shows each subset with the best value, the bound and the gap."""
     N = instance.n_sensors
     if not applies(objective, N):
-        return np.inf, []
+        return np.inf, [], []
     left = stop.remaining()
     if left is not None:
         budget, cap, far = (share * max(left, 0.0) for share in (SHARE, STRETCH, FAR))
@@ -122,6 +125,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
     best = np.inf
     tight: tuple = (None, [])  # the last complete pass of the last subset of the least bound, and its sensors
     records: list[dict] = []
+    kept: list[tuple[list[int], object]] = []
     with progress_bar(progress) as bar:
         task = bar.add_task("dp subsets", total=None)
         while len(keep) < N:
@@ -144,6 +148,8 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
             best = min(best, bound)
             if known.made is not None and bound <= best:
                 tight = (known.made, list(keep))
+            if known.kept is not None:
+                kept.append((list(keep), known.kept))
             records.append(dict(sensors=list(keep), status=r.status, runtime_s=r.runtime_s,
                                 labels=r.solver["labels"], bound=r.bound, passes=list(r.solver["passes"])))
             plan = Plan(r.plan.positions, tuple(None if u is None else keep[u] for u in r.plan.schedule))
@@ -154,7 +160,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
             if joins is None:
                 break  # no other sensor sets a minimum: the subset's plan is optimal for the whole
             keep = sorted([*keep, joins])
-    return best, records
+    return best, records, kept
 
 
 def restricted(instance: Instance, keep: list[int], name: str) -> Instance:

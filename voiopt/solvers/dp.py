@@ -49,6 +49,9 @@ WIDEN_SHARE = 0.1  # while the next pass is predicted (2.5 x the last) to take a
 FAST_BUDGET = 50_000  # labels of the first, unbounded pass before incumbents are computed
 NEAR = 1e-9  # relative: a subset's passes run this far below their threshold (_below)
 FUTURE_WORK = 1e9  # the most scans (_dp_pattern.future_work) for the pattern of a subset's first pass: about 4 s
+WHOLE_WORK = 5e9  # ... for the pattern of a subset's pass in the whole's bounded pass: about 20 s (_recorded)
+SCANS_PER_S = 2e8  # the futures' scans a second, about (to predict their time)
+WHOLE_SHARE = 0.3  # of the time left that the futures of that pattern may take, predicted
 PATTERN_SENSORS = 3  # the bounded pass's pattern database: the first subset solved with this many sensors or more
 
 
@@ -164,7 +167,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         if b.plan is not None:
             offer(Plan.from_indices(instance, *b.plan), f"beam {width}")
 
-    relaxed, subset_runs = np.inf, []  # the subsets' (and cover) bound (internal units) and their records, if they ran
+    relaxed, subset_runs, kept = np.inf, [], []  # the subsets' (and cover) bound (internal units), records and passes
     cover = np.inf  # _dp_cover's bound, if computed
     pattern_runs: list[dict] = []
     if quick_beam > 0:  # a nearly free first incumbent: QUICK_BEAM labels per point
@@ -198,7 +201,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
                                   subsets=False, patterns=patterns, fast_budget=FAST_BUDGET, quick_beam=QUICK_BEAM,
                                   progress=False, threads=threads, known=known)
 
-            relaxed, subset_runs = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
+            relaxed, subset_runs, kept = _dp_subsets.relax(instance, objective, tab, stop, offer, lambda: (best_plan, best_value),
                                         solve_subset, progress)
             relaxed = min(relaxed, cover)
         elif known is not None and bounding and out.stopped == LABEL_BUDGET:
@@ -208,7 +211,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
                                     offer, passes, pattern_runs, progress, limits,
                                     partial(_pattern_tables, objective=objective, tour=tab.steps.shape[0] > 0,
                                             pair_bytes=_pair_room(stop, tab) if pair_bound and tdma else 0.0),
-                                    patterns, known)
+                                    patterns, known, kept)
     if out.plan is not None:
         plan = Plan.from_indices(instance, *out.plan)
         found = tab.internal(simulate(instance, plan).metrics[objective])
@@ -255,7 +258,8 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
 
 def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset_runs: list[dict], inc, relaxed: float,
              offer, passes: list, pattern_runs: list, progress: bool, limits: dict,
-             tables, patterns: bool = True, known: _dp_subsets.Known | None = None) -> tuple[SearchOutcome, float]:
+             tables, patterns: bool = True, known: _dp_subsets.Known | None = None,
+             kept: list = ()) -> tuple[SearchOutcome, float]:
     """The bounded pass, with the pattern database (``_dp_pattern``) of the first subset of at
     least PATTERN_SENSORS sensors that the subsets solved, if any (and ``patterns``). While the
     subsets' bound is above the incumbent, a first pass searches only above the midpoint z
@@ -273,7 +277,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
     solved = [r for r in subset_runs if r["status"] == "optimal" and len(r["sensors"]) >= PATTERN_SENSORS]
     sensors = solved[0]["sensors"] if solved and patterns else None
     z = inc()
-    given = None
+    given = extra = None  # a smaller subset's pass, for a subset's first pass; a subset's pass, for the whole's passes
     if known is not None:
         rec = known.recorded
         # just below B; or at the recorded pass's own threshold, where B came back from the
@@ -281,13 +285,24 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
         near = -np.inf if rec is None else max(_below(relaxed, known), rec.threshold)
         if patterns and z < near < relaxed:
             t0 = time.perf_counter()
-            own = _dp_pattern.from_layers(rec.layers, rec.tab, rec.threshold, stop)
+            own = _dp_pattern.from_layers(rec.layers, rec.tab, rec.threshold, stop, limits["threads"])
             given = None if own is None else own.within(known.sensors, tab)
             z = near if given is not None else z
             pattern_runs.append(dict(sensors=list(known.sensors), threshold=tab.external(rec.threshold),
-                                     built=given is not None, labels=0, runtime_s=time.perf_counter() - t0))
-    elif sensors is not None and np.isfinite(relaxed) and relaxed > z:
-        z += (relaxed - z) / 2
+                                     built=given is not None, recorded=True, labels=0,
+                                     runtime_s=time.perf_counter() - t0))
+    else:
+        if sensors is not None and np.isfinite(relaxed) and np.isfinite(z) and relaxed > z:  # z: no incumbent
+            z += (relaxed - z) / 2
+        chosen = _recorded(kept, z, relaxed, stop) if patterns else None
+        if chosen is not None:  # the pattern of a subset's own pass, beside the pattern of 3 (docs/dp.md)
+            t0 = time.perf_counter()
+            own = _dp_pattern.from_layers(chosen[1].layers, chosen[1].tab, chosen[1].threshold, stop,
+                                          limits["threads"])
+            extra = None if own is None else own.within(chosen[0], tab)
+            pattern_runs.append(dict(sensors=list(chosen[0]), threshold=tab.external(chosen[1].threshold),
+                                     built=extra is not None, recorded=True, labels=0,
+                                     runtime_s=time.perf_counter() - t0))
     def level() -> float:  # the pass's threshold (a subset's a hair below; its first pass is below B already)
         return max(z, inc()) if given is not None else _below(max(z, inc()), known)
 
@@ -303,8 +318,11 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
             if own is not None and own.plan is not None:  # a plan of the subset above z is one of the whole
                 offer(_subset_plan(instance, own.plan, sensors), f"pattern of {len(sensors)}")
             pattern_runs.append(dict(sensors=list(sensors), threshold=tab.external(at), built=pattern is not None,
-                                     labels=0 if own is None else own.labels, runtime_s=time.perf_counter() - t0))
+                                     recorded=False, labels=0 if own is None else own.labels,
+                                     runtime_s=time.perf_counter() - t0))
             found = () if pattern is None else (pattern,)
+        if extra is not None and extra.threshold <= at:
+            found += (extra,)
         threshold = max(at, level())  # the pattern's offer may have raised the incumbent
         layers = None if known is None or not patterns else []
         out = search(tab, threshold, progress=progress, patterns=found, record=layers, **limits)
@@ -323,13 +341,31 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
 def _leave(known: _dp_subsets.Known | None, layers: list | None, tab: Tables, threshold: float) -> None:
     """A subset's complete pass, left for the next subset (``known.made``) if the futures of its
     pattern take at most FUTURE_WORK scans: the first pass of a subset of 8 of a network of 16
-    waited 34 s for the pattern of a pass of 349k labels (docs/dp.md)."""
+    waited 34 s for the pattern of a pass of 349k labels (docs/dp.md); and for the whole's
+    bounded pass (``known.kept``, ``_recorded``) if they take at most WHOLE_WORK."""
     if known is None:
         return
-    known.made = None
-    if layers is not None and _dp_pattern.future_work(layers, tab) <= FUTURE_WORK:  # without the bounds' tables
+    known.made = known.kept = None
+    work = np.inf if layers is None else _dp_pattern.future_work(layers, tab)
+    if work <= WHOLE_WORK:  # without the bounds' tables
         light = replace(tab, best_rank=tab.best_rank[:0], point_steps=tab.point_steps[:0], pair=tab.pair[:0])
-        known.made = _dp_pattern.Recorded(layers, light, threshold)
+        known.kept = _dp_pattern.Recorded(layers, light, threshold, work)
+        known.made = known.kept if work <= FUTURE_WORK else None
+
+
+def _recorded(kept, first: float, relaxed: float, stop: Stop) -> tuple | None:
+    """Of the complete passes the subsets left (their sensors, ``_dp_pattern.Recorded``), the one
+    whose pattern joins the whole's bounded passes: that of the most sensors among those run at
+    most at the first pass's threshold ``first`` (a pattern serves only passes at or above its
+    own; a subset's pass runs at the subset's incumbent, often above the whole's optimum) and
+    below the subsets' bound ``relaxed``, whose futures are predicted to take at most
+    WHOLE_SHARE of the time left. A subset's own pass bounds far more tightly than the pattern
+    of PATTERN_SENSORS sensors: docs/dp.md, "The pattern of a subset's own pass"."""
+    left = stop.remaining()
+    fits = [(keep, rec) for keep, rec in kept
+            if rec.threshold <= first and rec.threshold < relaxed
+            and (left is None or rec.work / SCANS_PER_S <= WHOLE_SHARE * left)]
+    return max(fits, key=lambda kr: len(kr[0]), default=None)
 
 
 def _below(value: float, known: _dp_subsets.Known | None) -> float:
