@@ -295,6 +295,8 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
         if sensors is not None and np.isfinite(relaxed) and np.isfinite(z) and relaxed > z:  # z: no incumbent
             z += (relaxed - z) / 2
         chosen = _recorded(kept, z, relaxed, stop) if patterns else None
+        if kept:  # free the other subsets' passes: the memory limit does not count them
+            kept.clear()
         if chosen is not None:  # the pattern of a subset's own pass, beside the pattern of 3 (docs/dp.md)
             t0 = time.perf_counter()
             own = _dp_pattern.from_layers(chosen[1].layers, chosen[1].tab, chosen[1].threshold, stop,
@@ -303,6 +305,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
             pattern_runs.append(dict(sensors=list(chosen[0]), threshold=tab.external(chosen[1].threshold),
                                      built=extra is not None, recorded=True, labels=0,
                                      runtime_s=time.perf_counter() - t0))
+            chosen = own = None  # the pattern keeps what it needs of the pass
     def level() -> float:  # the pass's threshold (a subset's a hair below; its first pass is below B already)
         return max(z, inc()) if given is not None else _below(max(z, inc()), known)
 
