@@ -284,13 +284,8 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
         # objective's units an ulp lower (a pattern serves only passes at or above its threshold)
         near = -np.inf if rec is None else max(_below(relaxed, known), rec.threshold)
         if patterns and z < near < relaxed:
-            t0 = time.perf_counter()
-            own = _dp_pattern.from_layers(rec.layers, rec.tab, rec.threshold, stop, limits["threads"])
-            given = None if own is None else own.within(known.sensors, tab)
+            given = _pattern_of(rec, known.sensors, tab, stop, limits["threads"], pattern_runs)
             z = near if given is not None else z
-            pattern_runs.append(dict(sensors=list(known.sensors), threshold=tab.external(rec.threshold),
-                                     built=given is not None, recorded=True, labels=0,
-                                     runtime_s=time.perf_counter() - t0))
     else:
         if sensors is not None and np.isfinite(relaxed) and np.isfinite(z) and relaxed > z:  # z: no incumbent
             z += (relaxed - z) / 2
@@ -298,14 +293,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
         if kept:  # free the other subsets' passes: the memory limit does not count them
             kept.clear()
         if chosen is not None:  # the pattern of a subset's own pass, beside the pattern of 3 (docs/dp.md)
-            t0 = time.perf_counter()
-            own = _dp_pattern.from_layers(chosen[1].layers, chosen[1].tab, chosen[1].threshold, stop,
-                                          limits["threads"])
-            extra = None if own is None else own.within(chosen[0], tab)
-            pattern_runs.append(dict(sensors=list(chosen[0]), threshold=tab.external(chosen[1].threshold),
-                                     built=extra is not None, recorded=True, labels=0,
-                                     runtime_s=time.perf_counter() - t0))
-            chosen = own = None  # the pattern keeps what it needs of the pass
+            extra = _pattern_of(chosen[1], chosen[0], tab, stop, limits["threads"], pattern_runs)
     def level() -> float:  # the pass's threshold (a subset's a hair below; its first pass is below B already)
         return max(z, inc()) if given is not None else _below(max(z, inc()), known)
 
@@ -354,6 +342,19 @@ def _leave(known: _dp_subsets.Known | None, layers: list | None, tab: Tables, th
         light = replace(tab, best_rank=tab.best_rank[:0], point_steps=tab.point_steps[:0], pair=tab.pair[:0])
         known.kept = _dp_pattern.Recorded(layers, light, threshold, work)
         known.made = known.kept if work <= FUTURE_WORK else None
+
+
+def _pattern_of(rec: _dp_pattern.Recorded, sensors: list[int], tab: Tables, stop: Stop, threads: int,
+                pattern_runs: list) -> _dp_pattern.Pattern | None:
+    """The pattern database of a subset's recorded pass (``sensors``: its sensors among those of
+    ``tab``), or None if its futures were stopped or its ranks differ; its record (no labels: the
+    pass was counted in its subset) goes to ``pattern_runs``."""
+    t0 = time.perf_counter()
+    own = _dp_pattern.from_layers(rec.layers, rec.tab, rec.threshold, stop, threads)
+    pattern = None if own is None else own.within(sensors, tab)
+    pattern_runs.append(dict(sensors=list(sensors), threshold=tab.external(rec.threshold), built=pattern is not None,
+                             recorded=True, labels=0, runtime_s=time.perf_counter() - t0))
+    return pattern
 
 
 def _recorded(kept, first: float, relaxed: float, stop: Stop) -> tuple | None:
