@@ -67,9 +67,9 @@ def test_a_fleet_plot_gives_each_robot_its_colour_and_marks_its_uploads(tmp_path
     paths = [line for line in ax.lines if line.get_label() in ("robot 0", "robot 1", "robot 2")]
     assert [line.get_label() for line in paths] == ["robot 0", "robot 1", "robot 2"]
     assert [line.get_color() for line in paths] == list(ROBOT_COLOURS[:3])
-    labels = [t.get_text() for t in ax.texts]
-    uploads = [(t, u) for r in result.plan.robots for t, u in enumerate(r.schedule) if u is not None]
-    assert uploads and all(f"t{t}:s{u}" in labels for t, u in uploads)
+    uploads = sorted((t, u) for r in result.plan.robots for t, u in enumerate(r.schedule) if u is not None)
+    labels = [t.get_text() for t in ax.texts if t.get_text().startswith("t")]  # not the sensors' own
+    assert uploads and sorted(pair for text in labels for pair in _uploads_of(text)) == uploads
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert sum("max_moves 8" in t for t in legend) == 3
     plt.close(fig)
@@ -78,3 +78,43 @@ def test_a_fleet_plot_gives_each_robot_its_colour_and_marks_its_uploads(tmp_path
     assert main(["plot", str(tmp_path / "r.json"), "--instance", str(tmp_path / "i.json"),
                  "-o", str(tmp_path / "r.png")]) == 0
     assert (tmp_path / "r.png").stat().st_size > 10_000
+
+
+def _uploads_of(label: str) -> list[tuple[int, int]]:
+    """The (slot, sensor) pairs a label of draw_plan names: lines t3:s0 or t3-9:s0."""
+    pairs = []
+    for line in label.splitlines():
+        slots, sensor = line.split(":s")
+        first, _, last = slots[1:].partition("-")
+        pairs += [(t, int(sensor)) for t in range(int(first), int(last or first) + 1)]
+    return pairs
+
+
+def test_uploads_at_one_point_share_one_label_that_names_each_slot():
+    from voiopt.plan import Plan
+    from voiopt.plots import upload_labels
+
+    a, b = (1.0, 3.0), (2.0, 3.0)
+    positions = [(0.0, 3.0), a, a, a, a, b, a, a]
+    schedule = [None, 0, 0, 0, 1, 2, None, 0]
+    labels = upload_labels(Plan(tuple(positions), tuple(schedule)))
+    assert labels == {a: "t1-3:s0\nt4:s1\nt7:s0", b: "t5:s2"}
+    assert sorted(p for text in labels.values() for p in _uploads_of(text)) == \
+        sorted((t, u) for t, u in enumerate(schedule) if u is not None)
+
+
+def test_a_robot_that_stays_and_uploads_every_slot_gets_one_label():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+
+    from voiopt.plan import Plan
+    from voiopt.plots import draw_plan
+
+    inst = voiopt.generate(3, 10, seed=1)
+    plan = Plan(tuple([inst.start] * inst.horizon), tuple([0] * inst.horizon))
+    fig, ax = plt.subplots()
+    draw_plan(ax, inst, plan)
+    assert [t.get_text() for t in ax.texts if t.get_text().startswith("t")] == [f"t0-{inst.horizon - 1}:s0"]
+    plt.close(fig)

@@ -73,9 +73,26 @@ _ARROW = {(0, 1): "^", (0, -1): "v", (1, 0): ">", (-1, 0): "<", (0, 0): "o"}
 ROBOT_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan")
 
 
+def upload_labels(plan: Plan) -> dict[tuple[float, float], str]:
+    """One label per point where a robot uploads, so that labels never cover each other: a run
+    of consecutive slots uploading the same sensor reads t3-9:s0, and other uploads at the
+    same point follow on lines of their own, in slot order."""
+    runs: dict[tuple[float, float], list[list[int]]] = {}
+    for t, (point, u) in enumerate(zip(plan.positions, plan.schedule, strict=True)):
+        if u is None:
+            continue
+        at = runs.setdefault(point, [])
+        if at and at[-1][1] == t - 1 and at[-1][2] == u:
+            at[-1][1] = t
+        else:
+            at.append([t, t, u])
+    return {point: "\n".join(f"t{a}:s{u}" if a == b else f"t{a}-{b}:s{u}" for a, b, u in at)
+            for point, at in runs.items()}
+
+
 def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -> None:
     """Each robot's path in its own colour with direction markers (red where a sensor
-    uploads, labelled t{slot}:s{sensor}), its start, sensors and their ranges."""
+    uploads, labelled t{slot}:s{sensor} by ``upload_labels``), its start, sensors and their ranges."""
     from matplotlib.patches import Circle
 
     lat = lattice_mod.build(instance)
@@ -102,9 +119,9 @@ def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -
             u = robot.schedule[t]
             ax.scatter(x, y, marker=_ARROW.get(move, "o"), s=45, color="tab:red" if u is not None else colour,
                        edgecolor=colour if fleet else None, linewidths=1.2 if fleet else None, zorder=3)
-            if u is not None:
-                ax.annotate(f"t{t}:s{u}", (x, y), xytext=(-6, -11), textcoords="offset points", fontsize=6,
-                            color=colour if fleet else None)
+        for point, label in upload_labels(robot).items():
+            ax.annotate(label, point, xytext=(-6, -6), textcoords="offset points", fontsize=6, va="top",
+                        color=colour if fleet else None)
     ax.set_xlim(-0.4, instance.width + 0.4)
     ax.set_ylim(-0.4, instance.height + 0.4)
     ax.set_aspect("equal")
