@@ -406,20 +406,61 @@ def test_a_patterns_futures_are_the_same_on_one_thread_or_several():
     assert all(np.array_equal(a, b) for a, b in zip(one.future, three.future, strict=True))
 
 
+@pytest.mark.parametrize("max_moves", [None, 3])
+def test_a_patterns_first_match_at_a_point_is_its_least_future(max_moves):
+    """from_layers puts each point's labels in ascending order of f, so that the bound stops at
+    the first label whose ranks (and moves left) match: it must be the least f of all the
+    matches, as a scan of them all finds, for every label of an unbounded pass over the same
+    network (the pattern's pass runs at 70 % of the optimum, so some labels have no match),
+    and for each again with every rank one lower (so that many have several); and the layers,
+    put in that order in place, give the same futures again."""
+    from voiopt.solvers import _dp_pattern
+    from voiopt.stop import Stop
+
+    inst = voiopt.generate(5, 8, width=2.0, height=2.0, seed=5, name="least", max_moves=max_moves)
+    tab = dp._pattern_tables(inst, "mean-min-voi")
+    z = tab.internal(dp.solve(inst, "mean-min-voi").value)
+    z -= 0.3 * abs(z)
+    kept: list = []
+    every: list = []
+    assert dp.search(tab, z, record=kept, collapse=False).complete
+    assert dp.search(tab, -np.inf, record=every, collapse=False).complete
+    pattern = _dp_pattern.from_layers(kept, tab, z, Stop())
+    again = _dp_pattern.from_layers(kept, tab, z, Stop())
+    assert all(np.array_equal(a, b) for a, b in zip(pattern.future, again.future, strict=True))
+    matched = unmatched = 0
+    lowered = [(np.maximum(r - 1, 0).astype(r.dtype), a, lf, p, o) for r, a, lf, p, o in every]  # more matches
+    for t, (ranks, acc, left, pos, _) in [*enumerate(every[:len(kept)]), *enumerate(lowered[:len(kept)])]:
+        off, f, s_ranks, s_left = pattern.off[t], pattern.future[t], pattern.ranks[t], pattern.left[t]
+        assert all(np.all(np.diff(f[a:b]) >= 0) for a, b in zip(off[:-1], off[1:], strict=True))
+        got = pattern.bound(Stop(), t, ranks, acc, pos, left, np.full(len(acc), np.inf), tab.W.shape[1] - 1)
+        for k in range(len(acc)):
+            lo, hi = off[pos[k]], off[pos[k] + 1]
+            match = np.all(s_ranks[lo:hi] >= ranks[k], axis=1)
+            if pattern.budget_lane:
+                match &= s_left[lo:hi] >= left[k]
+            want = acc[k] + f[lo:hi][match].min() if match.any() else -np.inf
+            assert got[k] == want, (t, k, got[k], want)
+            matched += bool(match.sum() > 1)
+            unmatched += not match.any()
+    assert matched > 100 and unmatched > 100, (matched, unmatched)
+
+
 def test_a_pattern_bounds_a_label_only_through_kept_labels_of_its_ranks_and_moves_left():
     """The matching rule of a pattern database, on a hand-made pattern: a kept S-label bounds a
     label of the whole network only if its ranks, and with a budget its moves left, are at least
     the label's; the bound is the label's value plus the least such future, -inf if there is
-    none. Two kept labels at point 1 with the same ranks: 5 moves left and future 10, 1 move left
-    and future 3. (The moves-left lane is what a random network seldom exercises.)"""
+    none. Two kept labels at point 1 with the same ranks: 1 move left and future 3, 5 moves left
+    and future 10 (a point's labels in ascending order of future, as from_layers leaves them).
+    (The moves-left lane is what a random network seldom exercises.)"""
     from voiopt.solvers._dp_pattern import Pattern
     from voiopt.stop import Stop
 
     collapsed = 9
 
     def bound(lane, moves, ranks=(1, 1, 0), point=1, ub=np.inf, t=0):
-        pattern = Pattern(np.array([0, 1]), [np.array([[2, 2], [2, 2]], np.int16)], [np.array([5, 1], np.int16)],
-                          [np.array([0, 0, 2])], [np.array([10.0, 3.0])], lane, 0.0, 2, np.zeros((2, 4, 2)),
+        pattern = Pattern(np.array([0, 1]), [np.array([[2, 2], [2, 2]], np.int16)], [np.array([1, 5], np.int16)],
+                          [np.array([0, 0, 2])], [np.array([3.0, 10.0])], lane, 0.0, 2, np.zeros((2, 4, 2)),
                           np.zeros(2, np.int16))
         return pattern.bound(Stop(), t, np.array([ranks], np.int16), np.array([1.0]), np.array([point], np.int32),
                              np.array([moves], np.int16), np.array([ub]), collapsed)[0]

@@ -59,7 +59,7 @@ class Pattern:
     ranks: list[np.ndarray]  # per slot: (labels, |S|) int16
     left: list[np.ndarray]  # per slot: moves left
     off: list[np.ndarray]  # per slot: (n + 1,) offsets of each point's labels
-    future: list[np.ndarray]  # per slot: f of each label
+    future: list[np.ndarray]  # per slot: f of each label; each point's labels in ascending order of f (_by_future)
     budget_lane: int
     threshold: float  # internal units: z
     labels: int
@@ -148,11 +148,23 @@ def from_layers(layers: list[tuple], tab: Tables, threshold: float, stop, thread
         parts = watched_all(stop, _futures, calls, threads)
         if stop.check() is not None:  # the stop is remembered: a kernel halted by it returned part of f
             return None
-        futures[t] = np.concatenate(parts) if len(parts) > 1 else parts[0]
+        futures[t] = _by_future(np.concatenate(parts) if len(parts) > 1 else parts[0], off, ranks, acc, left)
         nxt = (ranks, left, off, futures[t])
     return Pattern(np.arange(tab.W.shape[0], dtype=np.int64), [x[0] for x in layers], [x[2] for x in layers],
                    [x[4] for x in layers], futures, tab.budget_lane, threshold,
                    sum(len(x[1]) for x in layers), tab.W, tab.initial_rank)
+
+
+def _by_future(future: np.ndarray, off: np.ndarray, *same: np.ndarray) -> np.ndarray:
+    """Each point's labels (``off``) in ascending order of f, so that the first whose ranks
+    match has the least f (``_least_future``): ``same``, the layer's other arrays, are put in
+    that order in place (the layer stays the same set of labels, and another ``from_layers``
+    gives the same futures); returns f in that order."""
+    point = np.repeat(np.arange(len(off) - 1), np.diff(off))
+    order = np.lexsort((future, point))
+    for a in same:
+        a[:] = a[order]
+    return future[order]
 
 
 def _same_ranks(W: np.ndarray, initial_rank: np.ndarray, whole: Tables, sensors: list[int]) -> bool:
@@ -167,9 +179,8 @@ def _same_ranks(W: np.ndarray, initial_rank: np.ndarray, whole: Tables, sensors:
 @njit(cache=True, inline="always")
 def _least_future(child, lf, budget_lane, ranks, left, lo, hi, future):
     """The least f among the labels lo..hi-1 whose ranks (and moves left) are at least the
-    child's, and whether there is one."""
-    best = np.inf
-    found = False
+    child's, and whether there is one: the first such label, since a point's labels are in
+    ascending order of f (``_by_future``)."""
     S = child.shape[0]
     for k in range(lo, hi):
         ok = budget_lane == 0 or left[k] >= lf
@@ -178,10 +189,8 @@ def _least_future(child, lf, budget_lane, ranks, left, lo, hi, future):
             ok = ranks[k, j] >= child[j]
             j += 1
         if ok:
-            found = True
-            if future[k] < best:
-                best = future[k]
-    return best, found
+            return future[k], True
+    return np.inf, False
 
 
 @njit(cache=True, nogil=True)
