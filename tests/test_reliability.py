@@ -347,3 +347,96 @@ def test_a_sigterm_while_a_file_is_written_leaves_no_temporary_file(tmp_path):
     proc = subprocess.run([sys.executable, "-c", WRITE_KILLED, str(tmp_path)], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.returncode
     assert proc.stdout.split() == ["interrupted", "143", "[]", "True"], proc.stderr
+
+
+# ------------------------------------------------------------------------------ where outputs go
+
+
+def test_an_output_that_would_replace_an_input_or_names_a_folder_is_refused(tmp_path):
+    """-o onto the command's own input would replace it with the output; -o DIR/ would write a
+    file named DIR. Both are refused before any work, in one line, and the input is kept."""
+    inst = tmp_path / "cs.json"
+    voiopt.save(voiopt.case_study(), inst)
+    before = inst.read_bytes()
+    done = run("solve", str(inst), "--method", "greedy", "-o", str(inst), "--quiet")
+    assert done.returncode == 2 and "is the INSTANCE this command reads" in one_line(done.stderr)
+    assert inst.read_bytes() == before
+    (tmp_path / "link.json").symlink_to(inst)  # the same file by another name
+    done = run("solve", str(inst), "--method", "greedy", "-o", str(tmp_path / "link.json"), "--quiet")
+    assert done.returncode == 2 and inst.read_bytes() == before
+    done = run("export", str(inst), str(inst))
+    assert done.returncode == 2 and inst.read_bytes() == before
+    done = run("solve", str(inst), "--method", "greedy", "-o", str(tmp_path / "out") + "/", "--quiet")
+    assert done.returncode == 2 and "names a folder" in one_line(done.stderr) and not (tmp_path / "out").exists()
+
+
+def test_an_output_through_a_link_or_into_a_pipe_keeps_what_the_path_is(tmp_path):
+    """A symbolic link stays a link (its target gets the result); a named pipe (like a device,
+    /dev/null) is written into, not replaced by a regular file."""
+    import threading
+
+    inst = tmp_path / "cs.json"
+    voiopt.save(voiopt.case_study(), inst)
+    target, link = tmp_path / "target.json", tmp_path / "link.json"
+    target.write_text("{}")
+    link.symlink_to(target)
+    assert run("solve", str(inst), "--method", "greedy", "-o", str(link), "--quiet").returncode == 0
+    assert link.is_symlink() and voiopt.load_result(target).method == "greedy"
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got: list[bytes] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()), daemon=True)
+    reader.start()
+    assert run("solve", str(inst), "--method", "greedy", "-o", str(fifo), "--quiet").returncode == 0
+    reader.join(30)
+    assert stat.S_ISFIFO(fifo.stat().st_mode) and json.loads(got[0])["method"] == "greedy"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cs.json", "link.json", "pipe", "target.json"]
+
+
+def test_a_writer_by_file_name_replaces_the_file_only_when_it_finishes(tmp_path):
+    """atomic_path (HiGHS writes a model by file name): a write that fails leaves the old file
+    and no temporary one; one that finishes replaces it; the temporary name keeps the suffix,
+    which picks HiGHS's format."""
+    from voiopt._files import atomic_path
+
+    model = tmp_path / "m.mps"
+    model.write_text("OLD")
+    with pytest.raises(RuntimeError), atomic_path(model) as tmp:
+        assert tmp.suffix == ".mps" and tmp.parent == tmp_path
+        tmp.write_text("HALF")
+        raise RuntimeError("cut short")
+    assert model.read_text() == "OLD" and sorted(p.name for p in tmp_path.iterdir()) == ["m.mps"]
+    assert run("export", str(ROOT / "instances" / "case-study.json"), str(model)).returncode == 0
+    assert model.read_text().rstrip().endswith("ENDATA") and sorted(p.name for p in tmp_path.iterdir()) == ["m.mps"]
+
+
+def test_a_sweep_whose_scheduler_is_not_dask_ends_in_one_line_and_leaves_its_folder_free(tmp_path, nets):
+    """--dask-scheduler at a service that speaks first and is not Dask (as ssh does) made the
+    Dask client read a frame 'length' of exabytes: a traceback. Now one line, exit 2, and the
+    run.json written before the run could start is removed, so another run may use the folder."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+
+    def banner():
+        while True:
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                return
+            conn.sendall(b"SSH-2.0-OpenSSH_9.6\r\n")
+
+    threading.Thread(target=banner, daemon=True).start()
+    out = tmp_path / "report"
+    try:
+        done = run("gap-report", str(nets), "--methods", "greedy", "-o", str(out), "--quiet",
+                   "--dask-scheduler", f"tcp://127.0.0.1:{server.getsockname()[1]}", timeout=60)
+    finally:
+        server.close()
+    assert done.returncode == 2 and "did not answer as a Dask scheduler" in one_line(done.stderr)
+    assert not (out / "run.json").exists()
+    done = run("gap-report", str(nets), "--methods", "greedy", "-o", str(out), "--quiet", "--time-limit", "5")
+    assert done.returncode == 0, done.stderr

@@ -167,8 +167,16 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
     """Write through a temporary file beside ``path``, renamed over it only when the block
     finishes: a reader sees the old file or the new one, never half of one. The file gets the
     permissions of a plain open() (0666 less the umask). The temporary file's name is drawn
-    before it is made, so that a Ctrl-C at any moment of the making, too, removes it."""
-    p = Path(path)
+    before it is made, so that a Ctrl-C at any moment of the making, too, removes it.
+
+    A symbolic link keeps being one: the file it points to is replaced. Something that exists
+    and is neither a file nor a folder (a device such as /dev/null, a named pipe) is written
+    into as open() would, not replaced by a file."""
+    p, special = _destination(path)
+    if special:
+        with open(p, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": newline})) as f:
+            yield f
+        return
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = None
     with _sigterm_raises():
@@ -190,6 +198,34 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
         except BaseException:
             if tmp is not None:
                 tmp.unlink(missing_ok=True)
+            raise
+
+
+def _destination(path: str | os.PathLike) -> tuple[Path, bool]:
+    """Where an output goes: the file a symbolic link points to, or the path; and whether that
+    is something other than a file or folder (a device, a named pipe), written into as it is."""
+    p = Path(os.path.realpath(path)) if os.path.islink(path) else Path(path)
+    return p, p.exists() and not p.is_file() and not p.is_dir()
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike):
+    """For a writer that takes a file name (HiGHS's writeModel): yields a temporary name beside
+    ``path``, with its suffix (which picks the format), renamed over ``path`` when the block
+    finishes and removed if it does not, as ``atomic_write`` does (symbolic links and special
+    files likewise)."""
+    p, special = _destination(path)
+    if special:
+        yield p
+        return
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.parent / f".{p.stem}.{secrets.token_hex(4)}.tmp{p.suffix}"
+    with _sigterm_raises():
+        try:
+            yield tmp
+            os.replace(tmp, p)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
             raise
 
 
@@ -246,12 +282,24 @@ def safe_name(name: str) -> str:
     return stem
 
 
-def check_output_file(path: str | os.PathLike, what: str = "-o/--output") -> Path:
+def check_output_file(path: str | os.PathLike, what: str = "-o/--output",
+                      inputs: Sequence[tuple[str, str | os.PathLike | None]] = ()) -> Path:
     """Before any work: the file can be written (its folder exists and is writable, and it is
-    not itself a folder); an OptionError naming the path otherwise."""
+    not itself a folder, nor one of the command's ``inputs``, (option, path) pairs, which the
+    output would replace); an OptionError naming the path otherwise."""
+    if str(path).endswith(("/", os.sep)):  # Path() would drop the slash and write a file of that name
+        raise OptionError(f"{what}: {str(path)!r} names a folder (it ends in '/'); give a file name")
     p = _named(path, what, NAME_MAX - TMP_EXTRA)
     if p.is_dir():
         raise OptionError(f"{what}: {str(p)!r} is a directory; give a file name")
+    for option, given in inputs:
+        if given is not None and p.exists() and Path(given).exists() and p.samefile(given):
+            raise OptionError(f"{what}: {str(p)!r} is the {option} this command reads; writing it would replace "
+                              "it: give another file name")
+    if p.exists() and not p.is_file():  # a device or a named pipe: written into, not replaced (atomic_write)
+        if not os.access(p, os.W_OK):
+            raise OptionError(f"{what}: {str(p)!r} cannot be written (no permission)")
+        return p
     parent = p.parent
     _check_parent(p, what)
     if (p.exists() and not os.access(p, os.W_OK)) or not _can_create_in(parent):

@@ -210,8 +210,8 @@ def _solve_options(args, inst) -> dict:
 
 
 def cmd_solve(args) -> int:
-    if args.output is not None:
-        check_output_file(args.output)  # before the work, not after it
+    if args.output is not None:  # before the work, not after it
+        check_output_file(args.output, inputs=[("INSTANCE", args.instance), ("--warm-start", args.warm_start)])
     inst = instance_mod.load(args.instance)
     result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst))
     if args.output:
@@ -236,7 +236,7 @@ def cmd_solve(args) -> int:
 def cmd_export(args) -> int:
     from voiopt.models.milp import export
 
-    check_output_file(args.model, "MODEL")
+    check_output_file(args.model, "MODEL", inputs=[("INSTANCE", args.instance)])
     inst = instance_mod.load(args.instance)
     export(inst, args.objective, args.model, covering_level=args.covering_level)
     out.print(f"wrote {args.model}", markup=False)
@@ -281,7 +281,7 @@ def cmd_plot(args) -> int:
     from voiopt.plots import check_figure_path, instance_for, plot_plan, plot_result
 
     check_figure_path(args.output)
-    check_output_file(args.output)
+    check_output_file(args.output, inputs=[("RESULT", args.result), ("--instance", args.instance)])
     d = read_json(args.result, error=VoioptError)
     if not isinstance(d, dict) or "status" in d:  # a result of voiopt solve (or not an object: said so)
         result = voiopt.load_result(args.result)

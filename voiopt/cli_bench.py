@@ -77,7 +77,8 @@ def cmd_bench_certify(args) -> int:
 def cmd_import_solution(args) -> int:
     from voiopt.models.milp.solution_file import import_solution
 
-    check_output_file(args.output)
+    check_output_file(args.output, inputs=[("INSTANCE", args.instance), ("MODEL", args.model),
+                                           ("SOLUTION", args.solution)])
     inst = instance_mod.load(args.instance)
     result = import_solution(inst, args.objective, args.model, args.solution)
     result.save(args.output)

@@ -20,6 +20,7 @@ from voiopt.experiments.runner import (
     check_manifest,
     count_option,
     method_tasks,
+    release_manifest,
     run_options,
     run_tasks,
 )
@@ -157,7 +158,7 @@ def make_figures(
                        reward_units=reward_units, seeds=seeds, workers=workers, dask_scheduler=dask_scheduler,
                        seed=seed)
     out = check_output_dir(out_dir, "--out")
-    check_manifest(out, {"command": "figures", "networks": networks, "robot_networks": robot_networks, "seed": seed,
+    created = check_manifest(out, {"command": "figures", "networks": networks, "robot_networks": robot_networks, "seed": seed,
                          "seeds": seeds, **opts}, "--out")
 
     # the case study (Figs. 3 and 4): the plans drawn are those of the first seed
@@ -180,7 +181,12 @@ def make_figures(
                    for t in method_tasks(i, p, list(ROBOT_METHODS), OBJECTIVE, out / "results" / ROBOTS.key, seed,
                                          seeds, group=f"{ROBOTS.key} K = {v:g}", only=ROBOT_EXACT, **opts)]
     tasks += robot_tasks
-    run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="figure runs")
+    try:
+        run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="figure runs")
+    except BaseException:
+        if created:  # a run that could not start does not hold the folder to its settings
+            release_manifest(out)
+        raise
 
     written = []
     cs_results = {t.method: load_result(t.out_path) for t in cs_tasks if t.seed in (None, seed)}

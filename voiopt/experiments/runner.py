@@ -245,6 +245,9 @@ def make_executor(workers: int, dask_scheduler: str | None):
             client = Client(dask_scheduler, timeout="10s")
         except (OSError, ValueError) as e:  # unreachable, or not an address (ValueError)
             raise OptionError(f"--dask-scheduler: cannot reach {dask_scheduler}: {e}") from None
+        except Exception as e:  # a service that is not Dask (ssh: a frame "length" of exabytes, MemoryError)
+            why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
+            raise OptionError(f"--dask-scheduler: {dask_scheduler} did not answer as a Dask scheduler: {why}") from None
     try:
         yield client.get_executor()
     finally:
@@ -388,8 +391,30 @@ def _group_sizes(tasks: Sequence[Task]) -> dict[str, int]:
     return sizes
 
 
-def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--output") -> None:
-    """Resume only a run made with the same settings: ``run.json`` records them.
+@contextmanager
+def manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--output"):
+    """``check_manifest`` around the block that runs the sweep: a ``run.json`` it wrote is
+    removed again if the block fails before any result is stored in ``out_dir / "results"``,
+    so that a run that could not start (a Dask scheduler out of reach) does not hold the
+    folder to its settings."""
+    created = check_manifest(out_dir, settings, what)
+    try:
+        yield
+    except BaseException:
+        if created:
+            release_manifest(out_dir)
+        raise
+
+
+def release_manifest(out_dir: Path) -> None:
+    """Remove the ``run.json`` of a run that stored no result in ``out_dir / "results"``."""
+    if not any((out_dir / "results").rglob("*.json")):
+        (out_dir / "run.json").unlink(missing_ok=True)
+
+
+def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--output") -> bool:
+    """Resume only a run made with the same settings: ``run.json`` records them. Returns
+    whether it wrote ``run.json`` (a new run).
 
     Without this, re-running into a folder with other options (episodes, time limit, seed,
     objective) would silently mix results of two different experiments."""
@@ -410,5 +435,6 @@ def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--ou
                 f"{'differs' if len(diff) == 1 else 'differ'}); "
                 "use another folder, or delete it to start again"
             )
-        return
+        return False
     write_json_atomic(path, settings)
+    return True

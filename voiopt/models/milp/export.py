@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from voiopt import objectives
+from voiopt._files import atomic_path
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.models.milp.formulation import build, build_covering
@@ -37,10 +38,10 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
     h = new_highs()
     h.silent()
     h.passModel(model.to_highs_lp(natural_units=True, names=True))
-    p.parent.mkdir(parents=True, exist_ok=True)
-    status = h.writeModel(str(p))
-    if status == highspy.HighsStatus.kError:
-        raise OptionError(f"model: HiGHS could not write {str(p)!r}")
+    with atomic_path(p) as tmp:  # a cut-off model never replaces the file
+        status = h.writeModel(str(tmp))
+        if status == highspy.HighsStatus.kError:
+            raise OptionError(f"model: HiGHS could not write {str(p)!r}")
     return model
 
 
