@@ -459,3 +459,30 @@ def test_plot_draws_a_plan_file_as_evaluate_reads_it(capsys, tmp_path):
     sub.write_text(json.dumps({"instance": "elsewhere", "plan": CASE_STUDY_PLAN}))
     code, _, err = run(capsys, "plot", str(sub), "--instance", CASE, "-o", str(tmp_path / "e.png"))
     assert code == 2 and "the plan is for 'elsewhere', the instance is 'case-study'" in one_line_error(err)
+
+
+def test_a_warm_start_of_another_instance_names_the_option_and_the_file(capsys, tmp_path):
+    other = tmp_path / "dock-result.json"
+    voiopt.solve(voiopt.load(ROOT / "instances" / "dock.json"), method="greedy").save(other)
+    for path, why in ((other, 'a result for instance "dock"'), (tmp_path / "missing.json", "no such file"),
+                      (Path(CASE), "an instance, not a plan")):
+        code, _, err = run(capsys, "solve", CASE, "--method", "greedy", "--warm-start", str(path), "--quiet")
+        assert code == 2 and one_line_error(err).startswith(f"voiopt: error: --warm-start: {path}: {why}"), err
+
+
+def test_a_seed_beyond_the_random_streams_64_bits_is_refused(capsys):
+    """Q-learning's stream keeps 64 bits of the seed: 2**64 would silently rerun seed 0."""
+    code, _, err = run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "10", "--seed", str(2**64))
+    assert code == 2 and "seed: must be below 2**64" in one_line_error(err)
+    assert run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "10", "--seed", str(2**64 - 1),
+               "--quiet")[0] == 0
+
+
+def test_a_result_with_an_unknown_status_is_refused(capsys, tmp_path):
+    d = voiopt.solve(voiopt.case_study(), method="greedy").to_dict()
+    d["status"] = "great"
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(d))
+    code, _, err = run(capsys, "plot", str(bad), "-o", str(tmp_path / "x.png"))  # plot draws the status in its title
+    assert code == 2 and "status: must be one of optimal" in one_line_error(err) and '"great"' in err
+    assert not (tmp_path / "x.png").exists()

@@ -197,11 +197,11 @@ def _solve_options(args, inst) -> dict:
         if v is not None:
             opts[key] = v
     if args.warm_start is not None:
-        opts["warm_start"] = voiopt.load_plan(args.warm_start, inst.name)
-        try:  # a plan that breaks a rule of this instance: say which file
+        try:  # no plan of this instance, or one that breaks a rule of it: say which option and file
+            opts["warm_start"] = voiopt.load_plan(args.warm_start, inst.name)
             voiopt.evaluate(inst, opts["warm_start"])
-        except PlanError as e:
-            raise PlanError(f"--warm-start: {args.warm_start}: {e}") from None
+        except PlanError as e:  # load_plan's own messages begin with the file
+            raise PlanError(f"--warm-start: {'' if str(e).startswith(args.warm_start) else args.warm_start + ': '}{e}") from None
     if not args.quiet and not args.json:
         opts["progress"] = True
     if args.verbose:

@@ -104,6 +104,8 @@ class Result:
             raise VoioptError(f"result: must be a JSON object, got {type(d).__name__}")
         if "objective" not in d and "sensors" in d:
             raise VoioptError("result: this is an instance, not a result (voiopt solve -o writes results)")
+        if d.get("status") not in STATUSES:  # a file's word is not taken: plot and evaluate show the status
+            raise VoioptError(f"result: status: must be one of {', '.join(STATUSES)}, got {show(d.get('status'))}")
         try:
             check_objective(d["objective"])
             return cls(
