@@ -30,8 +30,9 @@ from voiopt.solvers.base import (
     lattice_bytes,
     require_memory,
 )
-from voiopt.stop import Stop, watch
+from voiopt.stop import Stop, Stopped, halt_if_asked, watch
 
+STEP_BLOCK = 1 << 16  # (sensor, upload) pairs valued between two checks of the stop rule in a greedy step
 EXACT_TOUR_MAX_SENSORS = 7  # exact order enumeration up to N! = 5040 orders
 
 
@@ -66,18 +67,25 @@ class _Slot:
         """-1 (none) then the sensors in range of point p, ascending."""
         return [-1, *np.flatnonzero(self.lat.in_range[:, p]).tolist()]
 
-    def step(self, aoi: np.ndarray, dist: np.ndarray, p: int) -> list[tuple[int, np.ndarray, np.ndarray, tuple]]:
+    def step(self, aoi: np.ndarray, dist: np.ndarray, p: int,
+             stop: Stop | None = None) -> list[tuple[int, np.ndarray, np.ndarray, tuple]]:
         """For each upload u at p: (u, A(t+1), q(t+1), score); higher score is better.
 
         Score: leximin of the VoI vector (lowest VoI first), or for AoI objectives the leximax
-        of the ages negated, so ties on the bottleneck are broken by the next-worst sensor."""
+        of the ages negated, so ties on the bottleneck are broken by the next-worst sensor.
+        With thousands of sensors in range a step values millions of (sensor, upload) pairs
+        (10,000 sensors: 30 s), so ``stop`` is checked between blocks of them (Stopped)."""
         us = self.uploads(p)
         A, Q = (np.array(rows) for rows in zip(*(advance(aoi, dist, u, self.lat.distance[u, p]) for u in us), strict=True))
         if self.aoi_objective:
-            scores = [tuple(-np.sort(a)[::-1]) for a in A]
+            rows = -np.sort(A, axis=1)[:, ::-1]
         else:
-            v = physics.voi(A, Q, self.rho, self.power, self.inst.channel)
-            scores = [tuple(np.sort(row)) for row in np.atleast_2d(v)]
+            rows = np.sort(physics.voi_blocks(A, Q, self.rho[None, :], self.power[None, :], self.inst.channel, axis=0,
+                                              block=STEP_BLOCK, stop=stop), axis=1)
+        scores = []
+        for r in range(0, len(us), 256):
+            halt_if_asked(stop)
+            scores += map(tuple, rows[r: r + 256])
         return [(u, A[r], Q[r], scores[r]) for r, u in enumerate(us)]
 
     def voi(self, aoi: np.ndarray, dist: np.ndarray) -> np.ndarray:
@@ -132,19 +140,22 @@ def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
     idx, sched = [], []
     for t in range(instance.horizon):
         best_key, best = None, None
-        for u, a1, q1, score1 in slot.step(aoi, dist, p):
-            if stop.check():
-                break
-            worst = slot.bottleneck(a1, q1, reachable)
-            for m in range(5):
-                p1 = int(lat.neighbors[p, m])
-                if p1 < 0 or t + 1 < instance.horizon and not lat.can_finish(p1, t + 1, used + (p1 != p)):
-                    continue  # off the area, blocked, or no way left to end within the budget
-                lookahead = max(s for *_, s in slot.step(a1, q1, p1))
-                steps = to_sensor[worst, p1] if reachable[worst] else 0.0
-                key = (score1[0], lookahead[0], score1, -steps, lookahead)
-                if best_key is None or key > best_key:
-                    best_key, best = key, (u, m, a1, q1, p1)
+        try:
+            for u, a1, q1, score1 in slot.step(aoi, dist, p, stop):
+                if stop.check():
+                    break
+                worst = slot.bottleneck(a1, q1, reachable)
+                for m in range(5):
+                    p1 = int(lat.neighbors[p, m])
+                    if p1 < 0 or t + 1 < instance.horizon and not lat.can_finish(p1, t + 1, used + (p1 != p)):
+                        continue  # off the area, blocked, or no way left to end within the budget
+                    lookahead = max(s for *_, s in slot.step(a1, q1, p1, stop))
+                    steps = to_sensor[worst, p1] if reachable[worst] else 0.0
+                    key = (score1[0], lookahead[0], score1, -steps, lookahead)
+                    if best_key is None or key > best_key:
+                        best_key, best = key, (u, m, a1, q1, p1)
+        except Stopped:
+            pass  # stop.requested says so
         if stop.requested:
             break
         u, _, aoi, dist, p1 = best
