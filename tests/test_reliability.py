@@ -450,3 +450,37 @@ def test_a_sweep_whose_scheduler_is_not_dask_ends_in_one_line_and_leaves_its_fol
     assert not (out / "run.json").exists()
     done = run("gap-report", str(nets), "--methods", "greedy", "-o", str(out), "--quiet", "--time-limit", "5")
     assert done.returncode == 0, done.stderr
+
+
+def test_an_output_to_dev_stdout_writes_where_the_shell_sends_it(tmp_path):
+    """/dev/stdout is a link to the file behind the shell's redirection: the result goes
+    through the process's own descriptor, between what the shell wrote before and after it
+    (a first fix followed the link and replaced that file, losing 'header')."""
+    out = tmp_path / "out.txt"
+    command = (f"{{ echo header; {sys.executable} -m voiopt solve {ROOT / 'instances' / 'case-study.json'} "
+               f"--method greedy --quiet -o /dev/stdout; echo trailer; }} > {out}")
+    assert subprocess.run(["bash", "-c", command], cwd=ROOT, timeout=120).returncode == 0
+    lines = out.read_text().splitlines()
+    assert lines[0] == "header" and lines[-1] == "trailer"
+    assert json.loads("\n".join(lines[1:-1]))["method"] == "greedy"
+
+
+def test_links_an_output_goes_through_keep_the_format_and_place_the_user_gave(tmp_path):
+    """export through m.lp -> real.mps writes LP (the name given picks the format) into real.mps;
+    a dangling link is replaced by the file, as a missing file would be made, with no folders
+    made along its target."""
+    inst = ROOT / "instances" / "case-study.json"
+    (tmp_path / "real.mps").write_text("OLD")
+    (tmp_path / "m.lp").symlink_to("real.mps")
+    assert run("export", str(inst), str(tmp_path / "m.lp")).returncode == 0
+    assert (tmp_path / "m.lp").is_symlink() and "HiGHS .lp file" in (tmp_path / "real.mps").read_text()
+    (tmp_path / "dl.json").symlink_to("nowhere/deep/out.json")
+    assert run("solve", str(inst), "--method", "greedy", "--quiet", "-o", str(tmp_path / "dl.json")).returncode == 0
+    assert not (tmp_path / "dl.json").is_symlink() and not (tmp_path / "nowhere").exists()
+    assert voiopt.load_result(tmp_path / "dl.json").method == "greedy"
+
+
+def test_a_sweeps_seeds_past_64_bits_are_refused_before_any_work(tmp_path, nets):
+    done = run("gap-report", str(nets), "--methods", "qlearning", "--episodes", "10", "--seed", str(2**64 - 1),
+               "--seeds", "2", "-o", str(tmp_path / "q"), "--quiet")
+    assert done.returncode == 2 and "must be below 2**64" in one_line(done.stderr) and not (tmp_path / "q").exists()

@@ -9,6 +9,7 @@ import os
 import re
 import secrets
 import signal
+import stat
 import sys
 import tempfile
 import threading
@@ -174,7 +175,11 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
     into as open() would, not replaced by a file."""
     p, special = _destination(path)
     if special:
-        with open(p, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": newline})) as f:
+        fd = _descriptor(p)  # /dev/stdout and the like: the process's own descriptor, as a shell writes to it
+        if fd is not None:
+            sys.stdout.flush()
+        raw = os.dup(fd) if fd is not None else os.open(p, os.O_WRONLY | os.O_APPEND | getattr(os, "O_BINARY", 0))
+        with os.fdopen(raw, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": newline})) as f:
             yield f
         return
     p.parent.mkdir(parents=True, exist_ok=True)
@@ -202,10 +207,26 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
 
 
 def _destination(path: str | os.PathLike) -> tuple[Path, bool]:
-    """Where an output goes: the file a symbolic link points to, or the path; and whether that
-    is something other than a file or folder (a device, a named pipe), written into as it is."""
-    p = Path(os.path.realpath(path)) if os.path.islink(path) else Path(path)
-    return p, p.exists() and not p.is_file() and not p.is_dir()
+    """Where an output goes, and whether it is written into as it is (``open(path)``) rather
+    than replaced: a device or a named pipe, or anything under /dev or /proc (/dev/stdout is a
+    link to the file or pipe behind the shell's redirection, which must not be replaced). A
+    link to an existing file: that file, replaced (the link stays); any other path, itself."""
+    given = Path(path)
+    try:
+        st = os.stat(given)  # through links
+    except OSError:
+        return given, False  # nothing there yet, or a dangling link (replaced, as a file would be)
+    hops = [os.readlink(given)] if given.is_symlink() else []
+    if not (stat.S_ISREG(st.st_mode) or stat.S_ISDIR(st.st_mode)) or \
+            any(str(x).startswith(("/dev/", "/proc/")) for x in (os.path.abspath(given), *hops)):
+        return given, True
+    return (Path(os.path.realpath(given)) if hops else given), False
+
+
+def _descriptor(path: Path) -> int | None:
+    """The descriptor that /dev/stdout, /dev/stderr, /dev/fd/N or /proc/self/fd/N names."""
+    m = re.fullmatch(r"/dev/(stdout|stderr)|/(?:dev/fd|proc/self/fd)/(\d+)", os.path.abspath(path))
+    return None if m is None else {"stdout": 1, "stderr": 2}.get(m.group(1) or "", int(m.group(2) or 0))
 
 
 @contextmanager
@@ -219,7 +240,8 @@ def atomic_path(path: str | os.PathLike):
         yield p
         return
     p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.parent / f".{p.stem}.{secrets.token_hex(4)}.tmp{p.suffix}"
+    suffix = Path(path).suffix  # the name the user gave picks the format, not a link's target
+    tmp = p.parent / f".{p.stem}.{secrets.token_hex(4)}.tmp{suffix}"
     with _sigterm_raises():
         try:
             yield tmp
@@ -296,13 +318,13 @@ def check_output_file(path: str | os.PathLike, what: str = "-o/--output",
         if given is not None and p.exists() and Path(given).exists() and p.samefile(given):
             raise OptionError(f"{what}: {str(p)!r} is the {option} this command reads; writing it would replace "
                               "it: give another file name")
-    if p.exists() and not p.is_file():  # a device or a named pipe: written into, not replaced (atomic_write)
+    dest, special = _destination(p)  # where atomic_write makes its temporary file: a link's target's folder
+    if special:  # written into, not replaced
         if not os.access(p, os.W_OK):
             raise OptionError(f"{what}: {str(p)!r} cannot be written (no permission)")
         return p
-    parent = p.parent
-    _check_parent(p, what)
-    if (p.exists() and not os.access(p, os.W_OK)) or not _can_create_in(parent):
+    _check_parent(dest, what)
+    if (dest.exists() and not os.access(dest, os.W_OK)) or not _can_create_in(dest.parent):
         raise OptionError(f"{what}: {str(p)!r} cannot be written (no permission)")
     return p
 

@@ -143,6 +143,9 @@ def run_options(*, time_limit: float | None, memory_limit: float, episodes: int 
     """Check the options every sweep shares; return those each run receives (one thread each)."""
     check_seed(seed)
     check_seeds(seeds)
+    if seed + seeds - 1 >= 2**64:  # before any work, not as K runs ending in error
+        raise OptionError(f"--seed: the seeds {seed}..{seed + seeds - 1} of --seeds {seeds} must be below 2**64 "
+                          "(Q-learning's random stream has 64 bits)")
     if episodes is not None:
         check_episodes(episodes, "--episodes")
     check_reward_units(reward_units)
