@@ -32,6 +32,14 @@ def check_seed(seed) -> None:
         raise OptionError(f"seed: must be an integer >= 0, got {seed!r}")
 
 
+def check_stream_seeds(first: int, count: int = 1, what: str = "seed") -> None:
+    """Q-learning's random stream keeps 64 bits of its seed (qlearning._rng.seed_state): the
+    seeds first..first+count-1 must fit, or seed + 2**64 would silently rerun seed's stream."""
+    if first + count - 1 >= 2**64:
+        got = repr(first) if count == 1 else f"the seeds {first}..{first + count - 1} of --seeds {count}"
+        raise OptionError(f"{what}: must be below 2**64 (Q-learning's random stream has 64 bits), got {got}")
+
+
 MAX_EPISODES = 10**12  # Q-learning's R_max: about two months of training at the paper's size; past it, a typo
 
 

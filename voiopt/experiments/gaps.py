@@ -13,9 +13,10 @@ from voiopt import objectives
 from voiopt._files import atomic_write, check_output_dir, write_csv
 from voiopt.experiments.runner import (
     Task,
+    check_manifest,
     check_methods,
+    freed_unless_stored,
     load_instances,
-    manifest,
     method_tasks,
     run_options,
     run_tasks,
@@ -186,7 +187,9 @@ def gap_report(
     notes = [] if notes is None else notes
     instances_found = load_instances(instances, notes)
     tasks = plan_tasks(instances_found, methods, objective, out, seed=seed, seeds=seeds, **options)
-    with manifest(out, {"command": "gap-report", "objective": objective, "seed": seed, "seeds": seeds, **options}):
+    created = check_manifest(out, {"command": "gap-report", "objective": objective, "seed": seed, "seeds": seeds,
+                                   **options})
+    with freed_unless_stored(out, created):
         run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="runs",
                   notes=notes)
     results = [load_result(t.out_path) for t in tasks]

@@ -19,8 +19,8 @@ from voiopt._files import atomic_write, check_output_dir, read_csv, safe_name, w
 from voiopt.experiments.runner import (
     check_manifest,
     count_option,
+    freed_unless_stored,
     method_tasks,
-    release_manifest,
     run_options,
     run_tasks,
 )
@@ -181,12 +181,8 @@ def make_figures(
                    for t in method_tasks(i, p, list(ROBOT_METHODS), OBJECTIVE, out / "results" / ROBOTS.key, seed,
                                          seeds, group=f"{ROBOTS.key} K = {v:g}", only=ROBOT_EXACT, **opts)]
     tasks += robot_tasks
-    try:
+    with freed_unless_stored(out, created):
         run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="figure runs")
-    except BaseException:
-        if created:  # a run that could not start does not hold the folder to its settings
-            release_manifest(out)
-        raise
 
     written = []
     cs_results = {t.method: load_result(t.out_path) for t in cs_tasks if t.seed in (None, seed)}

@@ -31,6 +31,7 @@ from voiopt.errors import (
     WorkerDied,
     check_episodes,
     check_seed,
+    check_stream_seeds,
 )
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
@@ -143,9 +144,7 @@ def run_options(*, time_limit: float | None, memory_limit: float, episodes: int 
     """Check the options every sweep shares; return those each run receives (one thread each)."""
     check_seed(seed)
     check_seeds(seeds)
-    if seed + seeds - 1 >= 2**64:  # before any work, not as K runs ending in error
-        raise OptionError(f"--seed: the seeds {seed}..{seed + seeds - 1} of --seeds {seeds} must be below 2**64 "
-                          "(Q-learning's random stream has 64 bits)")
+    check_stream_seeds(seed, seeds, "--seed")  # before any work, not as K runs ending in error
     if episodes is not None:
         check_episodes(episodes, "--episodes")
     check_reward_units(reward_units)
@@ -395,24 +394,17 @@ def _group_sizes(tasks: Sequence[Task]) -> dict[str, int]:
 
 
 @contextmanager
-def manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--output"):
-    """``check_manifest`` around the block that runs the sweep: a ``run.json`` it wrote is
-    removed again if the block fails before any result is stored in ``out_dir / "results"``,
-    so that a run that could not start (a Dask scheduler out of reach) does not hold the
-    folder to its settings."""
-    created = check_manifest(out_dir, settings, what)
+def freed_unless_stored(out_dir: Path, created: bool):
+    """Around the block that runs a sweep: the ``run.json`` that ``check_manifest`` wrote
+    (``created``) is removed again if the block fails before any result is stored in
+    ``out_dir / "results"``, so that a run that could not start (a Dask scheduler out of reach)
+    does not hold the folder to its settings."""
     try:
         yield
     except BaseException:
-        if created:
-            release_manifest(out_dir)
+        if created and not any((out_dir / "results").rglob("*.json")):
+            (out_dir / "run.json").unlink(missing_ok=True)
         raise
-
-
-def release_manifest(out_dir: Path) -> None:
-    """Remove the ``run.json`` of a run that stored no result in ``out_dir / "results"``."""
-    if not any((out_dir / "results").rglob("*.json")):
-        (out_dir / "run.json").unlink(missing_ok=True)
 
 
 def check_manifest(out_dir: Path, settings: dict[str, Any], what: str = "-o/--output") -> bool:

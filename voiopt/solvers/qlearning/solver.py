@@ -11,7 +11,13 @@ from rich.progress import TextColumn
 
 from voiopt import joint
 from voiopt import lattice as lattice_mod
-from voiopt.errors import MemoryLimitError, OptionError, check_episodes, check_seed
+from voiopt.errors import (
+    MemoryLimitError,
+    OptionError,
+    check_episodes,
+    check_seed,
+    check_stream_seeds,
+)
 from voiopt.instance import Instance
 from voiopt.models import fleet_mdp
 from voiopt.models import mdp as mdp_mod
@@ -104,8 +110,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     check_objective(objective)
     _check_options(episodes, seed, beta, gamma, q_init, penalty)
     check_seed(seed)
-    if seed >= 2**64:  # seed_state keeps 64 bits: seed + 2**64 would silently be seed's run
-        raise OptionError(f"seed: must be below 2**64 (Q-learning's random stream has 64 bits), got {seed!r}")
+    check_stream_seeds(seed)
     base.check_limits(time_limit, memory_limit)
     mdp_mod.check_reward_units(reward_units)
     if not isinstance(slot_in_state, bool):
