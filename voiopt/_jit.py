@@ -24,9 +24,11 @@ from numba.core import caching, cgutils, types
 from numba.extending import intrinsic
 
 njit = numba.njit
+USING_SVML = numba.config.USING_SVML  # numba vectorises math through Intel's SVML (voiopt._libm)
 
 ROOT = Path(__file__).resolve().parent
 KERNEL_MODULES = (  # every module of the package that defines kernels (tests/test_jit.py keeps this complete)
+    "_libm.py",
     "joint.py",
     "solvers/_dp_bounds.py",
     "solvers/_dp_core.py",

@@ -15,7 +15,7 @@ from rich.table import Table
 import voiopt
 from voiopt import _numba_start, fields, lattice
 from voiopt import instance as instance_mod
-from voiopt._files import check_output_dir, check_output_file, read_json
+from voiopt._files import check_output_dir, check_output_file, dumps_json, read_json
 from voiopt.cli_bench import add_commands as add_bench_commands
 from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
@@ -217,7 +217,7 @@ def cmd_solve(args) -> int:
     if args.output:
         result.save(args.output)
     if args.json:
-        print(json.dumps(result.to_dict(), indent=2))
+        print(dumps_json(result.to_dict()))
     elif not args.quiet:
         out.print(result.summary(), markup=False)
         out.print(_metrics_table({result.method: result.metrics}) if result.metrics else

@@ -96,10 +96,12 @@ class Plan:
         return cls(tuple(positions), tuple(schedule))
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "positions": [[_num(x), _num(y)] for x, y in self.positions],
-            "schedule": list(self.schedule),
-        }
+        try:  # each distinct point converted once (T = 10^6: 1.7 s as a loop over the slots)
+            pair = {xy: (_num(xy[0]), _num(xy[1])) for xy in set(self.positions)}
+            positions = list(map(list, map(pair.__getitem__, self.positions)))
+        except TypeError:  # positions that are not hashable pairs (a plan built in Python)
+            positions = [[_num(x), _num(y)] for x, y in self.positions]
+        return {"positions": positions, "schedule": list(self.schedule)}
 
     @classmethod
     def from_indices(cls, instance: Instance, idx, sched) -> Plan | FleetPlan:
@@ -108,9 +110,10 @@ class Plan:
         pts = lattice.build(instance).points
         if np.ndim(idx) == 2:
             return FleetPlan(tuple(cls.from_indices(instance, i, u) for i, u in zip(idx, sched, strict=True)))
+        xy = [(float(x), float(y)) for x, y in pts.tolist()]  # each point's pair once (T = 10^6: 1.2 s before)
         return cls(
-            tuple((float(pts[p, 0]), float(pts[p, 1])) for p in idx),
-            tuple(None if u < 0 else int(u) for u in sched),
+            tuple(map(xy.__getitem__, np.asarray(idx, dtype=np.int64).tolist())),
+            tuple(None if u < 0 else u for u in np.asarray(sched, dtype=np.int64).tolist()),
         )
 
 
