@@ -484,3 +484,40 @@ def test_a_sweeps_seeds_past_64_bits_are_refused_before_any_work(tmp_path, nets)
     done = run("gap-report", str(nets), "--methods", "qlearning", "--episodes", "10", "--seed", str(2**64 - 1),
                "--seeds", "2", "-o", str(tmp_path / "q"), "--quiet")
     assert done.returncode == 2 and "must be below 2**64" in one_line(done.stderr) and not (tmp_path / "q").exists()
+
+
+def test_a_scheduler_address_that_never_answers_ends_in_one_line(monkeypatch):
+    """--dask-scheduler at a service that waits for the client to speak first (an HTTP server)
+    made the Dask client wait in its handshake without end (its connect timeout does not cover
+    the handshake): only Ctrl-C ended it. Now a one-line error after SCHEDULER_WAIT_S."""
+    import socket
+    import threading
+    import time
+
+    from voiopt.errors import OptionError
+    from voiopt.experiments import runner
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    held = []
+
+    def silent():
+        while True:
+            try:
+                held.append(server.accept()[0])
+            except OSError:
+                return
+
+    threading.Thread(target=silent, daemon=True).start()
+    monkeypatch.setattr(runner, "SCHEDULER_WAIT_S", 1.5)
+    t0 = time.perf_counter()
+    try:
+        with pytest.raises(OptionError, match="did not answer as a Dask scheduler within 1.5 s"):
+            with runner.make_executor(1, f"tcp://127.0.0.1:{server.getsockname()[1]}"):
+                pass
+    finally:
+        server.close()
+        for conn in held:
+            conn.close()
+    assert time.perf_counter() - t0 < 10

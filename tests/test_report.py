@@ -148,6 +148,7 @@ def test_dask_workers_elsewhere_and_a_relative_output_write_on_the_client(tmp_pa
         (["--methods", "dp,nope"], "--methods: unknown method 'nope'"),
         (["--methods", "dp,dp"], "--methods: a method is repeated"),
         (["--workers", "0", "--methods", "greedy"], "--workers: must be an integer >= 1"),
+        (["--workers", "1000000", "--methods", "greedy"], "--workers: at most "),  # had started thousands of processes
         (["--time-limit", "-2"], "--time-limit: must be a number of seconds > 0"),
     ],
 )
@@ -273,3 +274,19 @@ def test_the_reading_of_v_is_given_only_where_the_reward_has_v():
 
     rows = report.gap_rows([res("qlearning", "voi"), res("aoi-qlearning", "aoi")], "mean-min-voi", [0, 0])
     assert [r["reward_units"] for r in rows] == ["bit/s", ""]
+
+
+def test_a_pool_has_no_more_processes_than_runs_to_do(tmp_path, nets, monkeypatch):
+    """--workers above the number of runs started a process per run up to --workers (a probe's
+    --workers 1000000 started thousands); the pool now has at most one per run to do."""
+    sizes = []
+    make = runner.make_executor
+
+    def recorded(workers, dask_scheduler):
+        sizes.append(workers)
+        return make(workers, dask_scheduler)
+
+    monkeypatch.setattr(runner, "make_executor", recorded)
+    most = runner.WORKERS_PER_CPU * (os.cpu_count() or 1)
+    report.gap_report([nets], ["greedy"], "mean-min-voi", tmp_path / "r", workers=most)
+    assert sizes == [min(most, 3)]

@@ -12,6 +12,7 @@ import inspect
 import json
 import os
 import signal
+import threading
 import time
 import warnings
 from collections.abc import Iterable, Sequence
@@ -100,8 +101,17 @@ def count_option(value: int, flag: str) -> int:
     return value
 
 
+WORKERS_PER_CPU = 4  # more processes only share the CPUs, and each holds its own tables
+
+
 def check_workers(workers: int) -> int:
-    return count_option(workers, "--workers")
+    """--workers: 1 to WORKERS_PER_CPU per CPU (--workers 1000000 started thousands of processes
+    and brought the machine to a load of 1000, a probe found, 2026-12-03)."""
+    count_option(workers, "--workers")
+    most = WORKERS_PER_CPU * (os.cpu_count() or 1)
+    if workers > most:
+        raise OptionError(f"--workers: at most {most} on this machine ({WORKERS_PER_CPU} per CPU), got {workers}")
+    return workers
 
 
 def check_methods(methods: Sequence[str]) -> list[str]:
@@ -226,6 +236,38 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+SCHEDULER_WAIT_S = 15.0  # the Dask client's own connect timeout (10 s) does not cover its handshake
+
+
+def _client(Client, address: str):
+    """A Dask client of the scheduler at address, or a one-line OptionError. The client is made
+    in a thread of its own, waited for SCHEDULER_WAIT_S: where a service that is not Dask waits
+    for the client to speak first (an HTTP server), the client's handshake waits without end
+    (found by a probe, 2026-12-03). The thread is left behind; the command ends."""
+    box: dict[str, Any] = {}
+
+    def make() -> None:
+        try:
+            box["client"] = Client(address, timeout="10s")
+        except BaseException as e:  # noqa: BLE001 -- reported below, in the caller's thread
+            box["error"] = e
+
+    maker = threading.Thread(target=make, name="voiopt-dask-connect", daemon=True)
+    maker.start()
+    maker.join(SCHEDULER_WAIT_S)
+    e = box.get("error")
+    if "client" in box:
+        return box["client"]
+    if maker.is_alive():
+        raise OptionError(f"--dask-scheduler: {address} did not answer as a Dask scheduler within "
+                          f"{SCHEDULER_WAIT_S:g} s (is it a Dask scheduler's address?)")
+    if isinstance(e, (OSError, ValueError)):  # unreachable, or not an address (ValueError)
+        raise OptionError(f"--dask-scheduler: cannot reach {address}: {e}") from None
+    # a service that is not Dask (ssh: a frame "length" of exabytes, MemoryError)
+    why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
+    raise OptionError(f"--dask-scheduler: {address} did not answer as a Dask scheduler: {why}") from None
+
+
 @contextmanager
 def make_executor(workers: int, dask_scheduler: str | None):
     """A process pool, or a Dask cluster's executor (an existing one, or 'local')."""
@@ -243,13 +285,7 @@ def make_executor(workers: int, dask_scheduler: str | None):
         client = Client(cluster)
     else:
         cluster = None
-        try:
-            client = Client(dask_scheduler, timeout="10s")
-        except (OSError, ValueError) as e:  # unreachable, or not an address (ValueError)
-            raise OptionError(f"--dask-scheduler: cannot reach {dask_scheduler}: {e}") from None
-        except Exception as e:  # a service that is not Dask (ssh: a frame "length" of exabytes, MemoryError)
-            why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
-            raise OptionError(f"--dask-scheduler: {dask_scheduler} did not answer as a Dask scheduler: {why}") from None
+        client = _client(Client, dask_scheduler)
     try:
         yield client.get_executor()
     finally:
@@ -343,7 +379,7 @@ def run_tasks(
                     break
                 finished(t, solve_task(t))
         elif todo:
-            with make_executor(workers, dask_scheduler) as ex:
+            with make_executor(min(workers, len(todo)), dask_scheduler) as ex:
                 pending = {ex.submit(solve_task, t): t for t in todo}
                 try:
                     while pending and not stop.requested:
