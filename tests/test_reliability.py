@@ -77,7 +77,7 @@ def test_a_signal_stops_the_whole_sweep_keeps_what_finished_and_stores_no_interr
         tmp_path, nets, sig, code, workers):
     out = tmp_path / "report"
     proc = voiopt_cmd("gap-report", str(nets), "--methods", "greedy,qlearning", "--episodes", "1e9",
-                      "--seeds", "1", "--workers", workers, "-o", str(out), "--quiet")
+                      "--seeds", "3" if workers == "2" else "1", "--workers", workers, "-o", str(out), "--quiet")
     wait_until_watching(proc)
     end = time.monotonic() + 60
     while not list(out.glob("results/*greedy*.json")) and time.monotonic() < end:
@@ -86,7 +86,7 @@ def test_a_signal_stops_the_whole_sweep_keeps_what_finished_and_stores_no_interr
     t0 = time.monotonic()
     proc.send_signal(sig)
     _, stderr = proc.communicate(timeout=30)
-    assert proc.returncode == code and time.monotonic() - t0 < 10
+    assert proc.returncode == code and time.monotonic() - t0 < 3, time.monotonic() - t0  # 5 s (the grace) with runs queued in the pool
     assert "interrupted" in one_line(stderr)
     stored = sorted(p.name for p in (out / "results").glob("*.json"))
     assert stored and all("greedy" in name for name in stored)  # no Q-learning run stored

@@ -20,6 +20,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from itertools import islice
 from pathlib import Path
 from typing import Any
 
@@ -380,12 +381,20 @@ def run_tasks(
                 finished(t, solve_task(t))
         elif todo:
             with make_executor(min(workers, len(todo)), dask_scheduler) as ex:
-                pending = {ex.submit(solve_task, t): t for t in todo}
+                # a process pool gets one run per worker at a time: runs queued in the pool
+                # cannot be cancelled, so a stop waited out STOP_GRACE_S while they started,
+                # and SIGKILLed workers left the pool's queue feeder blocked for ever
+                # (a probe, 2026-12-03). A Dask cluster gets them all, and cancels.
+                queue = iter(todo)
+                pending = {ex.submit(solve_task, t): t
+                           for t in islice(queue, len(todo) if dask_scheduler else min(workers, len(todo)))}
                 try:
                     while pending and not stop.requested:
                         done, _ = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
                         for f in done:
                             finished(pending.pop(f), f.result())
+                            for t in islice(queue, 0 if stop.requested else 1):
+                                pending[ex.submit(solve_task, t)] = t
                     if stop.requested:  # running solves hand back their best plan (not stored) or are ended
                         for f in pending:
                             f.cancel()
