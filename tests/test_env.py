@@ -81,24 +81,31 @@ def test_infeasible_actions_raise_or_are_penalised(case_study):
 
 @pytest.mark.parametrize("path", ["case-study", "dock"])
 @pytest.mark.parametrize("mode", ["paper", "normalised"])
-def test_random_masked_rollout_plan_matches_the_summed_reward(path, mode):
+@pytest.mark.parametrize("play, penalty", [("masked", 100.0), ("unmasked", 100.0), ("unmasked", 7.5)])
+def test_random_rollout_plan_matches_the_summed_reward(path, mode, play, penalty):
+    """The documented account (docs/qlearning.md): also for unmasked play with
+    infeasible="penalise" and another penalty (until 2026-12-03 the docs left the penalised
+    steps out and wrote 100 for the penalty, a probe found)."""
     inst = voiopt.load(ROOT / "instances" / f"{path}.json")
-    env = voienv.VoIEnv(inst, reward_mode=mode)
+    env = voienv.VoIEnv(inst, reward_mode=mode, infeasible="penalise", penalty=penalty)
     rng = random.Random(7)
+    penalised = 0
     for episode in range(3):
         _, info = env.reset(seed=episode)
         total, done = 0.0, False
         while not done:
-            a = rng.choice(np.flatnonzero(env.action_masks()).tolist())
-            _, r, done, _, info = env.step(a)
+            choices = np.flatnonzero(env.action_masks()) if play == "masked" else np.arange(env.action_space.n)
+            _, r, done, _, info = env.step(rng.choice(choices.tolist()))
             total += r
+        penalised += info["infeasible_steps"]
         value = voiopt.evaluate(inst, env.plan())["mean-min-voi"]  # a whole, legal plan
         T = inst.horizon
-        if mode == "paper":  # the documented rule: (sum r + penalty * idle slots) / T
-            expect = (total + 100.0 * info["idle_slots"]) / T
-        else:  # sum r * optimum / T
-            expect = total * env.optimum() / T
+        if mode == "paper":  # (sum r + penalty * (idle slots + infeasible steps)) / T
+            expect = (total + penalty * (info["idle_slots"] + info["infeasible_steps"])) / T
+        else:  # (sum r + penalty * infeasible steps) * optimum / T
+            expect = (total + penalty * info["infeasible_steps"]) * env.optimum() / T
         assert value == pytest.approx(expect, rel=1e-9)
+    assert (penalised > 0) == (play == "unmasked")
 
 
 @pytest.mark.parametrize("reward", ["voi", "aoi"])
@@ -184,3 +191,20 @@ def test_no_action_is_legal_once_the_episode_has_ended(case_study):
     for _ in range(case_study.horizon):
         *_, info = env.step(int(np.flatnonzero(env.action_masks())[0]))
     assert not info["action_mask"].any() and not env.action_masks().any()
+
+
+def test_the_api_takes_a_path_and_refuses_what_is_no_instance_in_one_line(case_study):
+    """gymnasium.make(..., instance=path) raised an AttributeError where reset's options took a
+    path; a number gave a TypeError; a step after the end a RuntimeError (a probe, 2026-12-03)."""
+    path = str(ROOT / "instances" / "case-study.json")
+    env = gymnasium.make(voienv.ENV_ID, instance=path)
+    assert env.unwrapped.instance == case_study
+    with pytest.raises(OptionError, match=r"^instance: must be an Instance or the path of an instance file, got 5$"):
+        gymnasium.make(voienv.ENV_ID, instance=5)
+    env.reset()
+    with pytest.raises(OptionError, match=r"^options.instance: must be an Instance or the path"):
+        env.reset(options={"instance": 5})
+    for _ in range(case_study.horizon):
+        env.step(int(env.unwrapped.action_masks().argmax()))
+    with pytest.raises(OptionError, match=r"^step: the episode has ended \(slot 10 of 10\): call reset\(\)$"):
+        env.step(0)

@@ -70,6 +70,7 @@ def test_random_masked_rollouts_are_legal_and_the_rewards_add_up(inst):
         got = simulate(inst, plan).metrics  # the simulator checks every rule between robots
         assert oracle.simulate(inst.to_dict(), plan.to_dict())["mean-min-voi"] == pytest.approx(got["mean-min-voi"])
         # the penalty is paid once per robot and slot without an upload
+        assert info["infeasible_steps"] == 0
         assert (total + 100.0 * info["idle_slots"]) / inst.horizon == pytest.approx(got["mean-min-voi"], rel=1e-9)
 
 
@@ -83,7 +84,7 @@ def test_illegal_joint_actions_raise_or_are_penalised():
     env = voienv.VoIEnv(inst, reward_units="bit/s/Hz", infeasible="penalise")
     env.reset()
     _, r, _, _, info = env.step(bad)
-    assert info["infeasible"] and r < -100
+    assert info["infeasible"] and r < -100 and info["infeasible_steps"] == 1
     with pytest.raises(OptionError, match="no certified optimum"):
         voienv.VoIEnv(inst, reward_mode="normalised")
     with pytest.raises(OptionError, match="has 1 robot"):

@@ -109,3 +109,32 @@ def test_a_network_seed_is_an_integer_or_a_seed_sequence_named_by_its_entropy(ma
     for bad in (-1, 1.5, "7", True):
         with pytest.raises(OptionError, match="seed"):
             make(seed=bad)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(rho=(0.2,)), "rho: must be a range"),
+    (dict(rho=(0.2, 0.3, 0.4)), "rho: must be a range"),
+    (dict(rho="ab"), "rho: must be a range"),
+    (dict(initial_aoi=(1,)), "initial-aoi: must be a range"),
+    (dict(channel="x"), 'channel: must be a voiopt.Channel or None, got "x"'),
+    (dict(power_w="1"), 'power: must be a number > 0, got "1"'),
+    (dict(power_w=True), "power: must be a number > 0, got true"),
+])
+def test_odd_arguments_of_the_api_are_refused_in_one_line(kwargs, message):
+    """A pair of the wrong length, a string or a wrong type gave ValueError, TypeError or
+    AttributeError from inside generate (a probe, 2026-12-03)."""
+    with pytest.raises(OptionError) as e:
+        voiopt.generate(**kwargs)
+    assert str(e.value).startswith(message) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("value", [None, 123, {}, b"cs.json"])
+def test_load_and_solve_refuse_what_is_no_path_or_instance(value):
+    """voiopt.load(None) raised pathlib's TypeError and voiopt.solve("cs.json") an
+    AttributeError; solve now also takes an instance file's path."""
+    with pytest.raises(OptionError, match=r"^path: must be the path of an instance file, got "):
+        voiopt.load(value)
+    with pytest.raises(OptionError, match=r"^instance: must be an Instance or the path of an instance file, got "):
+        voiopt.solve(value, method="greedy")
+    path = Path(__file__).resolve().parent.parent / "instances" / "case-study.json"
+    assert voiopt.solve(str(path), method="greedy").value == voiopt.solve(voiopt.load(path), method="greedy").value

@@ -23,8 +23,9 @@ Reward: ``reward_mode="paper"`` (MODEL.md section 7: min_i V_i(t+1) in bit/s, or
 -max_i A_i(t+1), minus ``penalty`` when nothing is uploaded), or ``"normalised"``: min_i V_i(t+1)
 divided by the instance's certified ``mean-min-voi`` optimum (VoI-Lib's certificate when the
 instance is in VoI-Lib, else dp's), no penalty. Over an episode the plan's ``mean-min-voi`` is
-then (sum of rewards) * optimum / T, or, with the paper's VoI reward, (sum of rewards + penalty *
-idle slots) / T (``info["idle_slots"]``).
+then (sum of rewards + penalty * infeasible steps) * optimum / T, or, with the paper's VoI
+reward, (sum of rewards + penalty * (idle slots + infeasible steps)) / T
+(``info["idle_slots"]``, ``info["infeasible_steps"]``: 0 unless ``infeasible="penalise"``).
 
 Several robots (MODEL.md section 10): a fleet instance makes a ``FleetVoIEnv``, whose action is
 the joint action, Discrete(((N + 1) * 5) ** K), with an exact mask of the legal joint actions
@@ -117,7 +118,8 @@ class VoIEnv(gym.Env):
         self.options = dict(reward=reward, penalty=penalty, reward_units=reward_units)
         self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
         self.sample = None if instance is not None else {**SAMPLE, **_check_sample(sample)}
-        self._load(instance if instance is not None else generate_network(seed=0, **self.sample))
+        self._load(instance_mod.as_instance(instance, "instance") if instance is not None
+                   else generate_network(seed=0, **self.sample))
         lat, N, K = self.lattice, self.instance.n_sensors, self.instance.n_robots
         box = lambda *shape: spaces.Box(0.0, 1.0, shape=shape, dtype=np.float32)  # noqa: E731
         obs = {"position": box(K, 2) if self.instance.fleet else box(2), "aoi": box(N), "q": box(N), "slot": box(1)}
@@ -129,7 +131,8 @@ class VoIEnv(gym.Env):
 
     def __new__(cls, instance: Instance | None = None, *args, **kwargs):
         """A fleet instance (MODEL.md section 10) makes a FleetVoIEnv: the joint action."""
-        return super().__new__(FleetVoIEnv if instance is not None and instance.fleet else cls)
+        fleet = instance is not None and instance_mod.as_instance(instance, "instance").fleet
+        return super().__new__(FleetVoIEnv if fleet else cls)
 
     # ------------------------------------------------------------------ the instance
 
@@ -155,6 +158,7 @@ class VoIEnv(gym.Env):
         self._positions: list = []
         self._schedule: list = []
         self._idle = 0
+        self._penalised = 0  # steps executed as their feasible part, ``penalty`` subtracted
 
     def optimum(self) -> float:
         """The certified mean-min-voi optimum that normalises the reward (once per instance)."""
@@ -183,8 +187,7 @@ class VoIEnv(gym.Env):
         if unknown:
             raise OptionError(f"options: unknown key {sorted(unknown)[0]!r} (allowed: instance)")
         if "instance" in options:
-            given = options["instance"]
-            inst = given if isinstance(given, Instance) else instance_mod.load(given)
+            inst = instance_mod.as_instance(options["instance"], "options.instance")
             self._check_fits(inst)
             self._load(inst)
         elif self.sample is not None:  # a fresh paper-style network from the env's own generator
@@ -221,7 +224,7 @@ class VoIEnv(gym.Env):
         if not 0 <= a < self.action_space.n:
             raise OptionError(f"action: must be in 0..{self.action_space.n - 1}, got {action!r}")
         if self.t >= self.instance.horizon:
-            raise RuntimeError("step() after the episode ended: call reset()")
+            raise OptionError(f"step: the episode has ended (slot {self.t} of {self.instance.horizon}): call reset()")
         return a
 
     def step(self, action):
@@ -253,6 +256,7 @@ class VoIEnv(gym.Env):
             reward /= self.optimum()
         if not feasible:
             reward -= self.options["penalty"]
+            self._penalised += 1
         self.t += 1
         terminated = self.t >= self.instance.horizon
         info = self._info()
@@ -286,7 +290,7 @@ class VoIEnv(gym.Env):
 
     def _info(self) -> dict[str, Any]:
         return {"action_mask": self.action_masks(), "slot": self.t, "idle_slots": self._idle,
-                "instance": self.instance.name}
+                "infeasible_steps": self._penalised, "instance": self.instance.name}
 
     # ------------------------------------------------------------------ rendering
 
@@ -383,6 +387,7 @@ class FleetVoIEnv(VoIEnv):
         self.state, self.t = self.joint.initial_state(), 0
         self._positions, self._schedule = [[] for _ in range(K)], [[] for _ in range(K)]
         self._idle = 0
+        self._penalised = 0  # steps executed as their feasible part, ``penalty`` subtracted
 
     def _points(self) -> list[int]:
         return list(self.state[0])
@@ -447,6 +452,7 @@ class FleetVoIEnv(VoIEnv):
         self.state, reward = self.joint.step(self.state, j)
         if not feasible:
             reward -= self.options["penalty"]
+            self._penalised += 1
         self.t += 1
         info = self._info()
         info["infeasible"] = not feasible

@@ -12,7 +12,7 @@ import numpy as np
 from voiopt import _files, fields
 from voiopt import instance as instance_mod
 from voiopt.errors import OptionError, PlanError, check_seed
-from voiopt.instance import Channel, Instance, Sensor
+from voiopt.instance import Channel, Instance, Sensor, show
 from voiopt.plan import Plan
 
 
@@ -45,7 +45,7 @@ def generate(
     (a free point the entity can reach in time and budget) or a point (x, y); ``max_moves``.
     ``robots`` K > 1 (MODEL.md section 10) adds robots 1..K-1 after that (fields.add_robots):
     distinct starts, uniform or with ``dock`` around robot 0's start, and ends by ``end``."""
-    _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi)
+    _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi, channel)
     rng, seed_label = fields.seeded(seed)
     fields.check_options(blocked_fraction, end, max_moves, horizon)
     channel = channel or Channel()
@@ -123,24 +123,35 @@ def _holds(path: Path, inst: Instance) -> bool:
         return False
 
 
-def _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi) -> None:
+def _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi, channel) -> None:
     if not (isinstance(n_sensors, int) and n_sensors >= 1):
         raise OptionError(f"sensors: must be an integer >= 1, got {n_sensors!r}")
     if not (isinstance(horizon, int) and horizon >= 1):
         raise OptionError(f"horizon: must be an integer >= 1, got {horizon!r}")
     for key, v in (("width", width), ("height", height), ("step", step), ("power", power_w)):
+        if not _number(v):
+            raise OptionError(f"{key}: must be a number > 0, got {show(v)}")
         if not (np.isfinite(v) and v > 0):
             raise OptionError(f"{key}: must be > 0, got {v!r}")
     nx, ny = instance_mod.lattice_shape(width, height, step)
     if not nx * ny <= instance_mod.MAX_LATTICE_POINTS:  # before drawing a start among them
         raise OptionError(f"width, height, step: a {width:g} x {height:g} area with step {step:g} has more than "
                           f"{instance_mod.MAX_LATTICE_POINTS} lattice points (the cap of instance.py)")
-    lo, hi = rho
-    if not (0 <= lo <= hi <= 1) or lo == hi in (0, 1):
-        raise OptionError(f"rho: must be a range 0 <= lo <= hi <= 1 with points inside (0, 1), got {list(rho)}")
-    a0, a1 = initial_aoi
-    if not (isinstance(a0, int) and isinstance(a1, int) and 1 <= a0 <= a1):
-        raise OptionError(f"initial-aoi: must be a range 1 <= lo <= hi of integers, got {list(initial_aoi)}")
+    if not (_pair(rho) and 0 <= rho[0] <= rho[1] <= 1) or rho[0] == rho[1] in (0, 1):
+        raise OptionError(f"rho: must be a range 0 <= lo <= hi <= 1 with points inside (0, 1), got {show(rho)}")
+    if not (_pair(initial_aoi) and all(isinstance(a, int) for a in initial_aoi) and 1 <= initial_aoi[0] <= initial_aoi[1]):
+        raise OptionError(f"initial-aoi: must be a range 1 <= lo <= hi of integers, got {show(initial_aoi)}")
+    if channel is not None and not isinstance(channel, Channel):
+        raise OptionError(f"channel: must be a voiopt.Channel or None, got {show(channel)}")
+
+
+def _number(v) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+def _pair(v) -> bool:
+    """A pair (lo, hi) of numbers."""
+    return isinstance(v, (tuple, list)) and len(v) == 2 and all(_number(x) for x in v)
 
 
 # The paper's Fig. 3/4 case study: N = 3, rho = [0.7, 0.6, 0.5], A(0) = [2, 4, 4], P = 1 W,

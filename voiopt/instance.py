@@ -50,7 +50,7 @@ from voiopt._places import (  # noqa: F401  (the lattice's geometry and caps are
     on_lattice,
     point_index,
 )
-from voiopt.errors import InstanceError
+from voiopt.errors import InstanceError, OptionError
 
 MAX_HORIZON = 10**6
 MAX_AGE = 2 * 10**6  # initial_aoi + horizon: the largest age A_i(t)
@@ -362,7 +362,19 @@ def _raise(ck: _Checker, source: str) -> None:
 
 def load(path: str | os.PathLike) -> Instance:
     """Load and validate an instance JSON file."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise OptionError(f"path: must be the path of an instance file, got {show(path)}")
     return from_dict(read_json(path), source=str(path))
+
+
+def as_instance(value: Any, field: str) -> Instance:
+    """An Instance, or the path of an instance file loaded; anything else is an OptionError
+    naming ``field`` (the Python API's arguments, which the command line never passes)."""
+    if isinstance(value, Instance):
+        return value
+    if isinstance(value, (str, os.PathLike)):
+        return load(value)
+    raise OptionError(f"{field}: must be an Instance or the path of an instance file, got {show(value)}")
 
 
 def loads(text: str) -> Instance:

@@ -11,6 +11,7 @@ import importlib
 import inspect
 from typing import Any
 
+from voiopt import instance as instance_mod
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.objectives import DEFAULT, check_objective
@@ -60,8 +61,10 @@ def default_method(instance: Instance) -> str:
 
 
 def solve(instance: Instance, method: str | None = None, objective: str = DEFAULT, **options: Any) -> Result:
-    """Solve ``instance`` with ``method`` (by default ``default_method``: dp, or milp for three
-    robots or more) for ``objective``; every value in the Result is simulated."""
+    """Solve ``instance`` (an Instance, or an instance file's path) with ``method`` (by default
+    ``default_method``: dp, or milp for three robots or more) for ``objective``; every value
+    in the Result is simulated."""
+    instance = instance_mod.as_instance(instance, "instance")
     method = default_method(instance) if method is None else method
     check_objective(objective)
     fn = solver_function(method)
