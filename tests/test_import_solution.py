@@ -189,3 +189,17 @@ def test_a_file_cut_short_or_of_another_model_is_refused(capsys, tmp_path):
     refused(text, "which .* has not\\): was it exported from another instance", voiopt.instance.from_dict(fewer))
     shorter = {**inst.to_dict(), "horizon": inst.horizon - 1}
     refused(text, "which .* has not\\): was it exported from another instance", voiopt.instance.from_dict(shorter))
+
+
+def test_a_whole_solution_of_another_objectives_model_is_named_as_such(tmp_path):
+    """HiGHS's whole solution of the min-voi model, read against the mean-min-voi model, was
+    called 'cut short' (its header counts a column the other model has not); it is now named
+    a solution of another model (a probe, 2026-12-03)."""
+    inst = voiopt.case_study()
+    mean, other, solution = tmp_path / "mean.mps", tmp_path / "min.mps", tmp_path / "min.sol"
+    export(inst, "mean-min-voi", mean)
+    export(inst, "min-voi", other)
+    solve_model_file(other, solution)
+    with pytest.raises(voiopt.OptionError, match=r"1 of its \d+ columns are not MODEL's \(such as 'z'\): a solution of "
+                                                 r"another model \(another --objective"):
+        import_solution(inst, "mean-min-voi", mean, solution)

@@ -274,3 +274,29 @@ def test_an_open_certificate_is_shown_with_digits_enough_to_tell_its_ends_apart(
     assert voilib.show_certificate({"status": "optimal", "value": 38459.7123, "bound": 38459.7123}) == "38459.7"
     assert voilib.show_certificate({"status": "feasible", "value": 38459.71, "bound": 38459.74}) == "[38459.71, 38459.74]"
     assert voilib.show_certificate({"status": "feasible", "value": 31.05, "bound": 51.5}) == "[31.05, 51.5]"
+
+
+def test_a_certificate_without_a_plan_says_why_each_run_had_none():
+    """With a memory limit below every method's tables, certify said only 'no method returned
+    a plan'; the cause was in the --work files alone (a probe, 2026-12-03)."""
+    inst = case_study()
+    runs = [Result(inst.name, m, "min-voi", "error", None, None, None, 0.0, None, None,
+                   {"error": f"MemoryLimitError: --memory-limit: {m}'s tables need more\nsecond line"})
+            for m in ("dp", "milp")]
+    with pytest.raises(VoioptError) as e:
+        voilib.certificate_of(inst, "min-voi", runs)
+    assert str(e.value) == ("certify: case-study min-voi: no method returned a plan (dp: error (MemoryLimitError: "
+                            "--memory-limit: dp's tables need more); milp: error (MemoryLimitError: --memory-limit: "
+                            "milp's tables need more))")
+
+
+def test_a_score_says_when_the_value_is_another_objectives_or_the_plan_another_instances():
+    """A max-aoi result relabelled mean-min-voi was asked whether it was solved on another
+    instance; a plan of another instance got the bare start rule (a probe, 2026-12-03)."""
+    r = voiopt.solve(LIB["paper-n3-t10-000"], "dp", "max-aoi").to_dict()
+    with pytest.raises(OptionError, match=r"it is the plan's max-aoi: is objective right\?$"):
+        voilib.score({**r, "objective": "mean-min-voi"})
+    plan = case_study_plan().to_dict()
+    with pytest.raises(voiopt.PlanError, match=r"^positions\[0\]: must equal start .*\(checked against VoI-Lib's "
+                                               r"paper-n3-t10-000\)$"):
+        voilib.score({"instance": "paper-n3-t10-000", "objective": "mean-min-voi", "plan": plan})

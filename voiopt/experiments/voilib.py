@@ -28,7 +28,7 @@ from voiopt._files import (
     safe_name,
     write_json_atomic,
 )
-from voiopt.errors import OptionError, VoioptError
+from voiopt.errors import OptionError, PlanError, VoioptError
 from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance, show
 from voiopt.objectives import OBJECTIVES, best, better, check_objective, gap, tightest
@@ -240,14 +240,23 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
     if stated is not None and (isinstance(stated, bool) or not isinstance(stated, (int, float))
                                or not finite(stated)):
         raise OptionError(f"{source}: value: must be a finite number (or absent), got {show(stated)}")
-    value = simulate(inst, Plan.from_dict({"plan": result["plan"]})).metrics[objective]  # errors name plan.
+    try:
+        metrics = simulate(inst, Plan.from_dict({"plan": result["plan"]})).metrics  # errors name plan.
+    except PlanError as e:  # the instance it was checked against, which a plan of another one would not fit
+        raise PlanError(f"{e} (checked against VoI-Lib's {name})") from None
+    value = metrics[objective]
     if stated is not None:
         if not agrees(stated, value):
-            by_name = "" if result.get("instance_sha256") is not None else (
-                "; was it solved on another instance of that name? (instance_sha256, from certificates.json, "
-                "names the instance exactly)")
+            other = [o for o in OBJECTIVES if o != objective and agrees(stated, metrics[o])]
+            if other:
+                why = f"; it is the plan's {other[0]}: is objective right?"
+            elif result.get("instance_sha256") is None:
+                why = ("; was it solved on another instance of that name? (instance_sha256, from certificates.json, "
+                       "names the instance exactly)")
+            else:
+                why = ""
             raise OptionError(f"{source}: value: {stated!r} is not what its plan gives on VoI-Lib's {name} "
-                              f"({value!r} by the simulator): rejected{by_name}")
+                              f"({value!r} by the simulator): rejected{why}")
     cert = certificates()["instances"].get(name, {}).get("certificates", {}).get(objective)
     row = {"result": row_source, "instance": name, "objective": objective, "value": value,
            "certified": show_certificate(cert), "certified_status": None, "certified_value": None,
@@ -308,6 +317,10 @@ def score_files(paths: list[str]) -> tuple[list[dict[str, Any]], list[VoioptErro
 # ------------------------------------------------------------------------- certification
 
 
+def _first_line(text: Any) -> str:
+    return (str(text).strip().splitlines() or [""])[0][:200]
+
+
 def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dict[str, Any]:
     """One certificate from the certifying runs of an instance and objective: the best
     simulated plan and the tightest proven bound. Two proofs of optimality must agree."""
@@ -319,8 +332,11 @@ def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dic
                 raise VoioptError(f"certify: {inst.name} {objective}: {a.method} proves {a.value!r} and {b.method} "
                                   f"proves {b.value!r}: the exact methods disagree")
     with_plan = [r for r in results if r.plan is not None and r.value is not None]
-    if not with_plan:
-        raise VoioptError(f"certify: {inst.name} {objective}: no method returned a plan")
+    if not with_plan:  # each run's own words: a memory limit, say, said only in the --work files before
+        why = "; ".join(f"{r.method}: {r.status}" + (f" ({_first_line(r.solver.get('error') or r.solver.get('stopped'))})"
+                                                    if r.solver.get("error") or r.solver.get("stopped") else "")
+                        for r in results)
+        raise VoioptError(f"certify: {inst.name} {objective}: no method returned a plan ({why or 'no runs'})")
     value = best(objective, [r.value for r in with_plan])
     top = next(r for r in with_plan if r.value == value)
     bounds = [r.bound for r in results if r.bound is not None]

@@ -87,7 +87,9 @@ class Read:
     values: dict[str, float] = field(default_factory=dict)
     stated: float | None = None
     declared: int | None = None
-    listed: int = 0
+    listed: int = 0  # of the model's columns, under HiGHS's "# Columns" header
+    seen: int = 0  # of all the columns under it
+    foreign: str | None = None  # the first column name that MODEL has not
     rounding: dict[str, float] = field(default_factory=dict)  # half a unit of each value's last printed digit
     stated_rounding: float = 0.0
 
@@ -154,9 +156,12 @@ def _read_lines(p: Path, in_model: set[str]) -> Read:
 
 
 def _take(out: Read, name: str, value: str, in_model: set[str], section) -> None:
+    out.seen += section == "columns"
     if name not in in_model:
         if _COLUMN.match(name):
             raise OptionError(f"SOLUTION: {name}: not a column of MODEL (a solution of another instance's model?)")
+        if section == "columns":
+            out.foreign = out.foreign or name
         return
     if name in out.values:
         raise OptionError(f"SOLUTION: {name}: given twice")
@@ -190,8 +195,12 @@ def _number(text: str, what: str, strict: bool = True) -> float | None:
 def _check_whole(read: Read, model: Model, solution) -> None:
     """A file cut short lists fewer columns than its header says, or states an objective value
     that its values do not give (a column left out counts 0, as in SCIP's files)."""
+    if read.declared is not None and read.seen == read.declared and read.listed != read.declared:
+        raise OptionError(f"SOLUTION: {solution}: {read.declared - read.listed} of its {read.declared} columns are not "
+                          f"MODEL's (such as {read.foreign!r}): a solution of another model (another --objective, "
+                          "--covering-level or instance)?")
     if read.declared is not None and read.listed != read.declared:
-        raise OptionError(f"SOLUTION: {solution}: its header announces {read.declared} columns, but {read.listed} "
+        raise OptionError(f"SOLUTION: {solution}: its header announces {read.declared} columns, but {read.seen} "
                           "follow: is the file cut short?")
     if read.stated is not None:  # within what the printed digits allow, and a hair for the sums
         terms = [c * read.values.get(n, 0.0) for n, c in model.cost.items()]
