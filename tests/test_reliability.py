@@ -521,3 +521,16 @@ def test_a_scheduler_address_that_never_answers_ends_in_one_line(monkeypatch):
         for conn in held:
             conn.close()
     assert time.perf_counter() - t0 < 10
+
+
+def test_a_sigterm_ends_any_command_with_a_line(tmp_path):
+    """A command without a stop rule of its own (bench score of thousands of files, here an
+    evaluate blocked on a named pipe) ended silently on SIGTERM, killed; it now says so, like
+    a Ctrl-C, with status 143 (a probe, 2026-12-03)."""
+    pipe = tmp_path / "result.json"
+    os.mkfifo(pipe)
+    proc = voiopt_cmd("evaluate", str(ROOT / "instances" / "case-study.json"), str(pipe))
+    wait_until_watching(proc)
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == 143 and one_line(stderr) == "voiopt: interrupted (SIGTERM); the command did not finish"

@@ -8,11 +8,9 @@ import json
 import os
 import re
 import secrets
-import signal
 import stat
 import sys
 import tempfile
-import threading
 from collections.abc import Sequence
 from contextlib import contextmanager
 from itertools import chain
@@ -23,7 +21,7 @@ import numpy as np
 
 from voiopt._checker import show
 from voiopt.errors import InstanceError, OptionError
-from voiopt.stop import Interrupted
+from voiopt.stop import sigterm_raises
 
 # Limits of every JSON file voiopt reads. A plan at the horizon cap (10**6 slots) has about
 # 10**6 lists and 3 * 10**6 commas and, pretty-printed inside a result, about 60 MB; the
@@ -185,7 +183,7 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
         return
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = None
-    with _sigterm_raises():
+    with sigterm_raises():
         try:
             while True:
                 tmp = p.parent / f".{p.name}.{secrets.token_hex(4)}.tmp"
@@ -243,33 +241,13 @@ def atomic_path(path: str | os.PathLike):
     p.parent.mkdir(parents=True, exist_ok=True)
     suffix = Path(path).suffix  # the name the user gave picks the format, not a link's target
     tmp = p.parent / f".{p.stem}.{secrets.token_hex(4)}.tmp{suffix}"
-    with _sigterm_raises():
+    with sigterm_raises():
         try:
             yield tmp
             os.replace(tmp, p)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
-
-
-@contextmanager
-def _sigterm_raises():
-    """While a file is written: a SIGTERM that would kill the process outright (its default
-    action, as after a solve's stop rule is gone) raises voiopt.stop.Interrupted instead, so
-    that the temporary file is removed and the command ends with status 143 (a fuzz campaign
-    found .tmp files left by a second signal during the write of a result)."""
-    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-        yield
-        return
-
-    def interrupt(signum, frame):
-        raise Interrupted(signum)
-
-    signal.signal(signal.SIGTERM, interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:

@@ -26,7 +26,7 @@ from voiopt.objectives import DEFAULT, OBJECTIVES
 from voiopt.plan import plan_of
 from voiopt.result import disagreement
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
-from voiopt.stop import last_signal
+from voiopt.stop import last_signal, sigterm_raises
 
 out = Console(highlight=False, soft_wrap=True)
 err = Console(stderr=True, highlight=False, soft_wrap=True)
@@ -459,7 +459,8 @@ def main(argv: list[str] | None = None) -> int:
     args = None
     try:
         args = build_parser().parse_args(argv)
-        return int(args.func(args) or 0)
+        with sigterm_raises():  # a SIGTERM ends any command with a line, as a Ctrl-C does
+            return int(args.func(args) or 0)
     except VoioptError as e:
         err.print(f"voiopt: error: {e}", markup=False)
         return 2
@@ -473,7 +474,6 @@ def main(argv: list[str] | None = None) -> int:
         kept = "finished results are kept" if sweep else "the command did not finish"
         err.print(f"voiopt: interrupted ({signal.Signals(code - 128).name}); {kept}", markup=False)
         return code
-
 
 
 def run() -> None:

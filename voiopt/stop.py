@@ -190,3 +190,25 @@ def _forget_after_fork() -> None:
 
 
 os.register_at_fork(after_in_child=_forget_after_fork)
+
+
+@contextmanager
+def sigterm_raises():
+    """While a file is written, and while a command runs: a SIGTERM that would kill the process
+    outright (its default action, as after a solve's stop rule is gone) raises Interrupted
+    instead, so that a temporary file is removed and the command ends with status 143 and a
+    line that says so (a fuzz campaign found .tmp files left by a second signal during the
+    write of a result; a probe, a silent end of `bench score`). Only in the main thread and
+    where SIGTERM has its default action; a solve's stop rule installs its own meanwhile."""
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise Interrupted(signum)
+
+    signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)

@@ -233,8 +233,10 @@ def is_done(path: str | os.PathLike) -> bool:
 
 
 def _ignore_sigint() -> None:
-    """Pool workers leave Ctrl-C to the solver's own stop rule (and to the parent)."""
+    """Pool workers leave Ctrl-C to the solver's own stop rule (and to the parent); a SIGTERM
+    between runs ends them (the command's own handler, voiopt.stop.sigterm_raises, is not theirs)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 SCHEDULER_WAIT_S = 15.0  # the Dask client's own connect timeout (10 s) does not cover its handshake
