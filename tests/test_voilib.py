@@ -300,3 +300,13 @@ def test_a_score_says_when_the_value_is_another_objectives_or_the_plan_another_i
     with pytest.raises(voiopt.PlanError, match=r"^positions\[0\]: must equal start .*\(checked against VoI-Lib's "
                                                r"paper-n3-t10-000\)$"):
         voilib.score({"instance": "paper-n3-t10-000", "objective": "mean-min-voi", "plan": plan})
+
+
+def test_an_instance_sha256_is_read_in_either_case_and_shown_whole():
+    plan = voiopt.solve(LIB["paper-n3-t10-000"], "greedy").to_dict()
+    digest = voilib.instance_hash(LIB["paper-n3-t10-000"])
+    row = voilib.score({"instance_sha256": digest.upper(), "objective": "mean-min-voi", "plan": plan["plan"]})
+    assert row["instance"] == "paper-n3-t10-000"
+    wrong = "f" * 64
+    with pytest.raises(OptionError, match=rf'^instance_sha256: "{wrong}" is no VoI-Lib'):
+        voilib.score({"instance_sha256": wrong, "objective": "mean-min-voi", "plan": plan["plan"]})

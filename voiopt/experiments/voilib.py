@@ -201,13 +201,13 @@ def find_instance(result: dict[str, Any]) -> tuple[str, Instance]:
     digest = result.get("instance_sha256")
     if digest is not None:
         for name, inst in lib.items():
-            if instance_hash(inst) == digest:
+            if isinstance(digest, str) and instance_hash(inst) == digest.lower():  # hex in either case
                 named = result.get("instance")
                 if named is not None and named != name:  # two names for the instance: neither wins unsaid
                     raise OptionError(f"instance: {show(named)} is not the instance its instance_sha256 names "
                                       f"({name}); give one, or both of the same instance")
                 return name, inst
-        raise OptionError(f"instance_sha256: {show(digest)} is no VoI-Lib {VERSION} instance")
+        raise OptionError(f"instance_sha256: {show(digest, 70)} is no VoI-Lib {VERSION} instance")  # 64 digits whole
     if "instance" not in result:
         raise OptionError("instance: is required (a VoI-Lib instance's name), or instance_sha256")
     name = result.get("instance")
