@@ -129,7 +129,8 @@ def command_line(networks, args, reference) -> tuple[int, list[float], list[floa
     """Time ``voiopt solve`` in fresh processes: (steps, wall seconds per network, wall seconds
     of three --episodes 10 runs, each network's ratio to the faster of the plain-Python runs
     (``reference()``, wall seconds) just before and just after it). The voiopt run is the one
-    this script imports."""
+    this script imports: the command runs in its tree's folder (until 2026-12-03 it ran in the
+    caller's, and ``python -m`` takes a voiopt there before PYTHONPATH's)."""
     root = str(Path(voiopt.__file__).resolve().parent.parent)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, *filter(None, [os.environ.get("PYTHONPATH")])])}
     command = [sys.executable, "-m", "voiopt", "solve"]
@@ -141,7 +142,8 @@ def command_line(networks, args, reference) -> tuple[int, list[float], list[floa
             out.unlink(missing_ok=True)
             t0 = time.perf_counter()
             done = subprocess.run([*command, str(path), "--method", "qlearning", "--episodes", str(episodes),
-                                   "--seed", str(args.seed), "-o", str(out)], env=env, capture_output=True, text=True)
+                                   "--seed", str(args.seed), "-o", str(out)], env=env, capture_output=True, text=True,
+                                  cwd=root)  # python -m puts its folder first: a voiopt there would win over PYTHONPATH
             wall = time.perf_counter() - t0
             if done.returncode:
                 sys.exit(f"{' '.join(done.args)} failed ({done.returncode}):\n{done.stderr}")
