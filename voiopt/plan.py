@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -29,6 +30,24 @@ def _finite(c: Any) -> float | None:
     except OverflowError:
         return None
     return f if math.isfinite(f) else None
+
+
+def _fast(positions: list, schedule: list) -> tuple[tuple, tuple] | None:
+    """positions and schedule as ``Plan._one`` reads them, at C speed, for the usual file:
+    pairs of ints or finite floats, and ints (of at most MAX_SENSORS) or nulls; None for anything
+    else, which the slot-by-slot reading then names (T = 10^6: 4.5 s slot by slot)."""
+    if set(map(type, positions)) - {list} or set(map(len, positions)) - {2}:
+        return None
+    if set(map(type, chain.from_iterable(positions))) - {int, float} or set(map(type, schedule)) - {int, type(None)}:
+        return None
+    try:
+        xy = np.array(positions, dtype=float).reshape(len(positions), 2)
+    except OverflowError:  # an int beyond a float
+        return None
+    uploads = [u for u in schedule if u is not None]
+    if not np.isfinite(xy).all() or (uploads and not -MAX_SENSORS <= min(uploads) <= max(uploads) < MAX_SENSORS):
+        return None
+    return tuple(map(tuple, xy.tolist())), tuple(schedule)
 
 
 def _key(k: Any) -> str:
@@ -78,6 +97,9 @@ class Plan:
             if len(v) > MAX_HORIZON:
                 raise PlanError(f"{where}{key}: must have at most {MAX_HORIZON} entries (the cap on the horizon), "
                                 f"got {len(v)}")
+        fast = _fast(d["positions"], d["schedule"])
+        if fast is not None:
+            return cls(*fast)
         positions = []
         for t, p in enumerate(d["positions"]):
             xy = [_finite(c) for c in p] if isinstance(p, list) and len(p) == 2 else None
