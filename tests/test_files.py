@@ -52,3 +52,18 @@ def test_a_long_plans_result_reads_back_as_written(tmp_path):
     text = (tmp_path / "r.json").read_text()
     assert text == json.dumps(r.to_dict(), indent=2, allow_nan=False) + "\n"
     assert voiopt.load_result(tmp_path / "r.json").to_dict() == r.to_dict()
+
+
+def test_a_nan_is_named_and_deep_or_circular_objects_fare_as_in_json():
+    """After review: a NaN in a long list is refused with json's own message, which names it;
+    nesting deeper than dumps_json looks and a circular reference are json's to handle."""
+    with pytest.raises(ValueError, match="not JSON compliant: nan"):
+        _files.dumps_json({"positions": [[0, 0]] * 300 + [[float("nan"), 0]]})
+    deep: list = [1] * 300
+    for _ in range(900):
+        deep = [deep]
+    assert _files.dumps_json(deep) == json.dumps(deep, indent=2)
+    loop: list = [1] * 300
+    loop.append(loop)
+    with pytest.raises(ValueError, match="Circular reference"):
+        _files.dumps_json({"a": loop})

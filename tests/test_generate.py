@@ -138,3 +138,14 @@ def test_load_and_solve_refuse_what_is_no_path_or_instance(value):
         voiopt.solve(value, method="greedy")
     path = Path(__file__).resolve().parent.parent / "instances" / "case-study.json"
     assert voiopt.solve(str(path), method="greedy").value == voiopt.solve(voiopt.load(path), method="greedy").value
+
+
+def test_after_review_numbers_and_pairs_as_numpy_and_fractions_are_taken():
+    from fractions import Fraction
+
+    want = voiopt.generate(rho=(0.2, 0.8), width=5.0)
+    assert voiopt.generate(rho=np.array([0.2, 0.8]), width=np.float64(5.0)) == want
+    assert voiopt.generate(rho=(Fraction(1, 5), Fraction(4, 5)), width=np.array(5.0)) == want
+    for kwargs in (dict(rho=(False, True)), dict(width=True), dict(channel=False), dict(rho=np.zeros((2, 2)))):
+        with pytest.raises(OptionError):
+            voiopt.generate(**kwargs)

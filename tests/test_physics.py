@@ -173,3 +173,11 @@ def test_a_large_array_is_valued_with_the_same_bits_either_way(monkeypatch):
     monkeypatch.setattr(physics, "compiled", lambda size: False)
     slow = physics.voi(aoi, q, rho, 0.1, CH)
     assert np.array_equal(fast.view(np.int64), slow.view(np.int64))
+
+
+def test_where_numba_vectorises_through_svml_the_python_path_is_kept(monkeypatch):
+    from voiopt import _libm
+
+    monkeypatch.setattr(_libm, "USING_SVML", True)
+    assert not physics.compiled(physics.COMPILED_FROM)
+    assert _libm.apply(_libm.LOG, np.ones(3)) is None

@@ -486,16 +486,12 @@ def test_a_sweeps_seeds_past_64_bits_are_refused_before_any_work(tmp_path, nets)
     assert done.returncode == 2 and "must be below 2**64" in one_line(done.stderr) and not (tmp_path / "q").exists()
 
 
-def test_a_scheduler_address_that_never_answers_ends_in_one_line(monkeypatch):
-    """--dask-scheduler at a service that waits for the client to speak first (an HTTP server)
-    made the Dask client wait in its handshake without end (its connect timeout does not cover
-    the handshake): only Ctrl-C ended it. Now a one-line error after SCHEDULER_WAIT_S."""
+@pytest.fixture
+def silent_scheduler():
+    """The address of a service that accepts and never speaks, as an HTTP server waits for the
+    client to speak first."""
     import socket
     import threading
-    import time
-
-    from voiopt.errors import OptionError
-    from voiopt.experiments import runner
 
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
@@ -510,16 +506,26 @@ def test_a_scheduler_address_that_never_answers_ends_in_one_line(monkeypatch):
                 return
 
     threading.Thread(target=silent, daemon=True).start()
-    monkeypatch.setattr(runner, "SCHEDULER_WAIT_S", 1.5)
-    t0 = time.perf_counter()
     try:
-        with pytest.raises(OptionError, match="did not answer as a Dask scheduler within 1.5 s"):
-            with runner.make_executor(1, f"tcp://127.0.0.1:{server.getsockname()[1]}"):
-                pass
+        yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
     finally:
         server.close()
         for conn in held:
             conn.close()
+
+
+def test_a_scheduler_address_that_never_answers_ends_in_one_line(monkeypatch, silent_scheduler):
+    """--dask-scheduler at a service that waits for the client to speak first (an HTTP server)
+    made the Dask client wait in its handshake without end (its connect timeout does not cover
+    the handshake): only Ctrl-C ended it. Now a one-line error after SCHEDULER_WAIT_S."""
+    from voiopt.errors import OptionError
+    from voiopt.experiments import runner
+
+    monkeypatch.setattr(runner, "SCHEDULER_WAIT_S", 1.5)
+    t0 = time.perf_counter()
+    with pytest.raises(OptionError, match="did not answer as a Dask scheduler within 1.5 s"):
+        with runner.make_executor(1, silent_scheduler):
+            pass
     assert time.perf_counter() - t0 < 10
 
 
@@ -534,3 +540,20 @@ def test_a_sigterm_ends_any_command_with_a_line(tmp_path):
     proc.send_signal(signal.SIGTERM)
     _, stderr = proc.communicate(timeout=30)
     assert proc.returncode == 143 and one_line(stderr) == "voiopt: interrupted (SIGTERM); the command did not finish"
+
+
+def test_a_stop_while_waiting_for_a_scheduler_ends_the_sweep_as_a_stop(tmp_path, nets, silent_scheduler):
+    """After review: a SIGTERM while the client waited for a scheduler that never answers was
+    lost (the wait ran its 15 s, then exit 2); it now ends the sweep as a stop, 143."""
+    from voiopt.experiments import runner
+
+    proc = voiopt_cmd("gap-report", str(nets), "--methods", "greedy", "-o", str(tmp_path / "r"), "--quiet",
+                      "--dask-scheduler", silent_scheduler)
+    wait_until_watching(proc)
+    time.sleep(1.0)
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and "interrupted (SIGTERM)" in one_line(stderr)
+    assert time.monotonic() - t0 < runner.SCHEDULER_WAIT_S / 2
+    assert runner.check_workers(1000, "tcp://10.0.0.1:8786") == 1000  # a remote cluster's workers are its own

@@ -283,3 +283,22 @@ def test_a_plans_file_is_read_the_same_at_c_speed_and_slot_by_slot(positions, sc
     if isinstance(fast, Plan):
         assert all(type(c) is float for xy in fast.positions for c in xy)
         assert all(u is None or type(u) is int for u in fast.schedule)
+
+
+def test_after_review_odd_plans_built_in_python_fail_as_before():
+    """A huge int among the positions names the first bad slot (it raised OverflowError);
+    Plan's conversions refuse what they cannot hold instead of truncating it."""
+    from voiopt import instance as im
+
+    inst = im.from_dict({"name": "r", "area": {"width": 2, "height": 2}, "horizon": 3, "start": [0, 0],
+                         "sensors": [{"position": [1, 1], "rho": 0.5}]})
+    with pytest.raises(PlanError, match=r"^positions\[1\]: \[0, 3\] is outside the area"):
+        check_plan(inst, Plan(((0, 0), (0, 3), (0, 10**400)), (None,) * 3))
+    with pytest.raises(TypeError, match="must be integers"):
+        Plan.from_indices(inst, np.array([0.0, 1.5, 1.0]), np.array([-1, -1, -1]))
+    with pytest.raises(TypeError, match="must be integers"):
+        Plan.from_indices(inst, np.array([0, 1, 1]), np.array([-0.5, -1, -1]))
+    with pytest.raises(ValueError):
+        Plan(((0, 0, 0),) * 3, (None,) * 3).to_dict()
+    big = Plan.from_indices(inst, np.array([0, 1, 1], dtype=np.uint64), np.array([2**63, 0, 2**64 - 1], dtype=np.uint64))
+    assert big.schedule == (2**63, 0, 2**64 - 1)  # as given: check_plan names them unknown sensors

@@ -259,6 +259,7 @@ def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:
 
 _SCALAR = {int, float, bool, type(None)}  # their JSON has no comma, bracket or quote
 LONG_LIST = 256  # lists from which ``dumps_json`` lays them out itself
+SWAP_DEPTH = 50  # how deep it looks for them (a result's plans are 3 to 4 deep)
 
 
 def dumps_json(obj: Any) -> str:
@@ -272,19 +273,25 @@ def dumps_json(obj: Any) -> str:
     lists: dict[str, str] = {}
     tag = f"voiopt-{secrets.token_hex(8)}-"
 
-    def swap(o: Any) -> Any:
+    def swap(o: Any, depth: int) -> Any:
+        if depth > SWAP_DEPTH:  # left to json as it is (deep nesting, a circular reference)
+            return o
         if isinstance(o, dict):
-            return {k: swap(v) for k, v in o.items()}
+            return {k: swap(v, depth + 1) for k, v in o.items()}
         if isinstance(o, (list, tuple)):
             kind = _kind(o)
-            if kind is None:
-                return [swap(v) for v in o]
+            try:
+                compact = None if kind is None else json.dumps(o, separators=(",", ":"), allow_nan=False)
+            except ValueError:  # a NaN: json's own encoder below names the value
+                compact = None
+            if compact is None:
+                return [swap(v, depth + 1) for v in o]
             name = f"{tag}{len(lists)}"
-            lists[json.dumps(name)] = json.dumps(o, separators=(",", ":"), allow_nan=False), kind
+            lists[json.dumps(name)] = compact, kind
             return name
         return o
 
-    text = json.dumps(swap(obj), indent=2, allow_nan=False)
+    text = json.dumps(swap(obj, 0), indent=2, allow_nan=False)
     if not lists:
         return text
     out, at = [], 0

@@ -146,12 +146,19 @@ def _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi, c
 
 
 def _number(v) -> bool:
-    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+    """A real number (a Python or numpy one, a Fraction, a 0-d array), not a bool or a string."""
+    if isinstance(v, (bool, np.bool_, str, bytes)) or np.ndim(v) != 0:
+        return False
+    try:
+        float(v)
+    except (TypeError, ValueError, OverflowError):
+        return False
+    return True
 
 
 def _pair(v) -> bool:
-    """A pair (lo, hi) of numbers."""
-    return isinstance(v, (tuple, list)) and len(v) == 2 and all(_number(x) for x in v)
+    """A pair (lo, hi) of numbers: a tuple, a list or an array of two."""
+    return not isinstance(v, (str, bytes, dict)) and hasattr(v, "__len__") and len(v) == 2 and all(_number(x) for x in v)
 
 
 # The paper's Fig. 3/4 case study: N = 3, rho = [0.7, 0.6, 0.5], A(0) = [2, 4, 4], P = 1 W,

@@ -147,6 +147,8 @@ def compiled(size: int) -> bool:
     arrays, such as greedy's blocks of 2^16 pairs, use it only once it is loaded, so that a
     time-limited solve does not pay numba's start for them."""
     if size >= COMPILED_FROM:
-        return True
+        from voiopt import _libm
+
+        return not _libm.USING_SVML
     loaded = sys.modules.get("voiopt._libm")
     return size >= COMPILED_FROM_LOADED and loaded is not None and loaded.ready

@@ -119,9 +119,9 @@ class Plan:
 
     def to_dict(self) -> dict[str, Any]:
         try:  # each distinct point converted once (T = 10^6: 1.7 s as a loop over the slots)
-            pair = {xy: (_num(xy[0]), _num(xy[1])) for xy in set(self.positions)}
+            pair = {xy: (_num(x), _num(y)) for xy in set(self.positions) for x, y in (xy,)}
             positions = list(map(list, map(pair.__getitem__, self.positions)))
-        except TypeError:  # positions that are not hashable pairs (a plan built in Python)
+        except (TypeError, ValueError):  # positions that are not hashable pairs (a plan built in Python)
             positions = [[_num(x), _num(y)] for x, y in self.positions]
         return {"positions": positions, "schedule": list(self.schedule)}
 
@@ -132,11 +132,12 @@ class Plan:
         pts = lattice.build(instance).points
         if np.ndim(idx) == 2:
             return FleetPlan(tuple(cls.from_indices(instance, i, u) for i, u in zip(idx, sched, strict=True)))
+        idx, sched = np.asarray(idx), np.asarray(sched)
+        if (idx.size and idx.dtype.kind not in "iu") or (sched.size and sched.dtype.kind not in "iu"):
+            raise TypeError(f"point indices and schedule must be integers, got {idx.dtype} and {sched.dtype}")
         xy = [(float(x), float(y)) for x, y in pts.tolist()]  # each point's pair once (T = 10^6: 1.2 s before)
-        return cls(
-            tuple(map(xy.__getitem__, np.asarray(idx, dtype=np.int64).tolist())),
-            tuple(None if u < 0 else u for u in np.asarray(sched, dtype=np.int64).tolist()),
-        )
+        return cls(tuple(map(xy.__getitem__, idx.astype(np.int64).tolist())),
+                   tuple(None if u < 0 else u for u in sched.tolist()))
 
 
 @dataclass(frozen=True)

@@ -74,8 +74,8 @@ def _indices(lat, positions) -> np.ndarray | None:
             if p is None or lat.blocked[p]:
                 return None
             known[xy] = p
-    except TypeError:  # not a pair of numbers (a plan built in Python, not read from JSON)
-        return None
+    except (TypeError, ValueError, OverflowError):  # not a pair of numbers (a plan built in Python, not
+        return None  # read from JSON): slot by slot, for the first bad slot's own message
     return np.fromiter(map(known.__getitem__, positions), np.int64, len(positions))
 
 

@@ -121,6 +121,11 @@ def last_signal() -> int | None:
     return _last_signal[-1] if _last_signal else None
 
 
+def signals_seen() -> int:
+    """How many signals have asked this process to stop so far (a wait compares two counts)."""
+    return len(_last_signal)
+
+
 def _handler(signum, frame) -> None:
     _last_signal.append(signum)
     if any(s.reason == INTERRUPTED for s in _active):  # the second request: stop at once

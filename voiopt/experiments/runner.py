@@ -42,7 +42,7 @@ from voiopt.progress import progress_bar
 from voiopt.result import Result, load_result
 from voiopt.solvers import METHODS, RANDOMISED, check_robots, solver_function
 from voiopt.solvers.base import check_limits
-from voiopt.stop import INTERRUPTED, Interrupted, watch
+from voiopt.stop import INTERRUPTED, Interrupted, last_signal, signals_seen, watch
 
 
 @dataclass(frozen=True)
@@ -105,12 +105,13 @@ def count_option(value: int, flag: str) -> int:
 WORKERS_PER_CPU = 4  # more processes only share the CPUs, and each holds its own tables
 
 
-def check_workers(workers: int) -> int:
-    """--workers: 1 to WORKERS_PER_CPU per CPU (--workers 1000000 started thousands of processes
-    and brought the machine to a load of 1000, a probe found, 2026-12-03)."""
+def check_workers(workers: int, dask_scheduler: str | None = None) -> int:
+    """--workers: 1 to WORKERS_PER_CPU per CPU of this machine, for its own processes (a process
+    pool, or Dask's 'local' cluster): --workers 1000000 started thousands of processes and
+    brought the machine to a load of 1000 (a probe, 2026-12-03)."""
     count_option(workers, "--workers")
     most = WORKERS_PER_CPU * (os.cpu_count() or 1)
-    if workers > most:
+    if workers > most and dask_scheduler in (None, "local"):
         raise OptionError(f"--workers: at most {most} on this machine ({WORKERS_PER_CPU} per CPU), got {workers}")
     return workers
 
@@ -160,7 +161,7 @@ def run_options(*, time_limit: float | None, memory_limit: float, episodes: int 
         check_episodes(episodes, "--episodes")
     check_reward_units(reward_units)
     check_limits(time_limit, memory_limit)
-    check_workers(workers)
+    check_workers(workers, dask_scheduler)
     check_scheduler(dask_scheduler)
     return dict(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes, reward_units=reward_units,
                 threads=1)
@@ -256,11 +257,15 @@ def _client(Client, address: str):
             box["error"] = e
 
     maker = threading.Thread(target=make, name="voiopt-dask-connect", daemon=True)
+    seen, deadline = signals_seen(), time.monotonic() + SCHEDULER_WAIT_S
     maker.start()
-    maker.join(SCHEDULER_WAIT_S)
+    while maker.is_alive() and time.monotonic() < deadline and signals_seen() == seen:
+        maker.join(0.1)
     e = box.get("error")
     if "client" in box:
         return box["client"]
+    if signals_seen() != seen:  # Ctrl-C or SIGTERM while waiting: the sweep stops as a whole
+        raise Interrupted(last_signal())
     if maker.is_alive():
         raise OptionError(f"--dask-scheduler: {address} did not answer as a Dask scheduler within "
                           f"{SCHEDULER_WAIT_S:g} s (is it a Dask scheduler's address?)")
@@ -274,7 +279,7 @@ def _client(Client, address: str):
 @contextmanager
 def make_executor(workers: int, dask_scheduler: str | None):
     """A process pool, or a Dask cluster's executor (an existing one, or 'local')."""
-    check_workers(workers)
+    check_workers(workers, dask_scheduler)
     if dask_scheduler is None:
         with ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint) as ex:
             yield ex

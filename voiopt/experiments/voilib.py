@@ -380,7 +380,7 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
 
     check_limits(time_limit, memory_limit)  # before any run: a bad limit would fail every one of them
     check_threads(threads)
-    check_workers(workers)
+    check_workers(workers, dask_scheduler)
     check_scheduler(dask_scheduler)
     every = lib = instances()
     if only is not None:
