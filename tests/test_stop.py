@@ -113,3 +113,22 @@ def test_in_a_loop_of_solves_one_signal_stops_one_solve_and_is_remembered():
     with watch() as second:
         assert not second.requested and second.check() is None
     assert last_signal() == signal.SIGTERM
+
+
+def test_a_signal_that_raises_during_a_watchs_set_up_leaves_no_watch_open(monkeypatch):
+    """A command's SIGTERM handler raises (stop.sigterm_raises); landing just after a watch was
+    registered, before its handlers went in, it left that watch open for good: later watches
+    in the process installed no handler and a Ctrl-C was swallowed (a review, 2026-12-03)."""
+    from voiopt import stop as stop_mod
+
+    class Raising(list):
+        def append(self, item):
+            super().append(item)
+            raise Interrupted(signal.SIGTERM)  # as the raising handler would, right there
+
+    monkeypatch.setattr(stop_mod, "_active", Raising())
+    before = signal.getsignal(signal.SIGINT)
+    with pytest.raises(Interrupted):
+        with watch():
+            pass
+    assert list(stop_mod._active) == [] and signal.getsignal(signal.SIGINT) is before

@@ -155,15 +155,18 @@ def watch(time_limit: float | None = None, memory_limit: float | None = None, la
             stop.request(INTERRUPTED, outer.signal)
     if _held:
         stop.request(INTERRUPTED, _held.pop())
-    _active.append(stop)  # before the handler goes in: no signal can fall between the two
-    if len(_active) == 1:
-        _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
-        for s in _SIGNALS:
-            signal.signal(s, _handler)
-    try:
+    try:  # a signal raising anywhere in the set-up (a command's SIGTERM, a first Ctrl-C) leaves no stale watch
+        _active.append(stop)  # before the handler goes in: no signal can fall between the two
+        if len(_active) == 1:
+            _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
+            for s in _SIGNALS:
+                signal.signal(s, _handler)
         yield stop
     finally:
-        _active.remove(stop)
+        for k, s in enumerate(_active):
+            if s is stop:
+                del _active[k]
+                break
         if not _active:
             _restore()
 
