@@ -163,10 +163,8 @@ def watch(time_limit: float | None = None, memory_limit: float | None = None, la
                 signal.signal(s, _handler)
         yield stop
     finally:
-        for k, s in enumerate(_active):
-            if s is stop:
-                del _active[k]
-                break
+        if stop in _active:  # not yet in it if the signal came before the append (a Stop is equal only to itself)
+            _active.remove(stop)
         if not _active:
             _restore()
 
