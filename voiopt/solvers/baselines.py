@@ -21,7 +21,6 @@ from voiopt.instance import Instance
 from voiopt.objectives import check_objective
 from voiopt.plan import Plan
 from voiopt.result import Result
-from voiopt.simulate import advance
 from voiopt.solvers import fleet_baselines
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
@@ -44,13 +43,14 @@ def _steps_to_sensor(instance: Instance) -> np.ndarray:
     """(N, n) fewest moves from each lattice point into range of each sensor, around blocked
     points (inf if never)."""
     lat = lattice_mod.build(instance)
-    out = np.full((instance.n_sensors, lat.n_points), np.inf)
-    for i in range(instance.n_sensors):
-        near = np.flatnonzero(lat.in_range[i] & ~lat.blocked)
-        if len(near):
-            steps = lat.steps_from(near)
-            out[i] = np.where(steps < lattice_mod.UNREACHABLE, steps, np.inf)
-    return out
+    # one search per distinct set of in-range points: thousands of sensors share a few hundred
+    ranges, which = np.unique(lat.in_range & ~lat.blocked, axis=0, return_inverse=True)
+    rows = np.full((len(ranges), lat.n_points), np.inf)
+    for j, near in enumerate(ranges):
+        if near.any():
+            steps = lat.steps_from(np.flatnonzero(near))
+            rows[j] = np.where(steps < lattice_mod.UNREACHABLE, steps, np.inf)
+    return rows[which.reshape(-1)]
 
 
 class _Slot:
@@ -76,7 +76,10 @@ class _Slot:
         With thousands of sensors in range a step values millions of (sensor, upload) pairs
         (10,000 sensors: 30 s), so ``stop`` is checked between blocks of them (Stopped)."""
         us = self.uploads(p)
-        A, Q = (np.array(rows) for rows in zip(*(advance(aoi, dist, u, self.lat.distance[u, p]) for u in us), strict=True))
+        A, Q = np.tile(np.asarray(aoi) + 1, (len(us), 1)), np.tile(np.asarray(dist, dtype=float), (len(us), 1))
+        rows, ups = np.arange(1, len(us)), np.asarray(us[1:], dtype=np.int64)  # row r: advance(aoi, dist, us[r], ...)
+        A[rows, ups] = 1
+        Q[rows, ups] = self.lat.distance[ups, p]
         if self.aoi_objective:
             rows = -np.sort(A, axis=1)[:, ::-1]
         else:
