@@ -197,8 +197,11 @@ def test_the_api_takes_a_path_and_refuses_what_is_no_instance_in_one_line(case_s
     """gymnasium.make(..., instance=path) raised an AttributeError where reset's options took a
     path; a number gave a TypeError; a step after the end a RuntimeError (a probe, 2026-12-03)."""
     path = str(ROOT / "instances" / "case-study.json")
-    env = gymnasium.make(voienv.ENV_ID, instance=path)
-    assert env.unwrapped.instance == case_study
+    loads = []
+    with pytest.MonkeyPatch.context() as mp:  # the file is read once (until 2026-12-03, twice)
+        mp.setattr(voiopt.instance, "load", lambda p, _load=voiopt.instance.load: loads.append(p) or _load(p))
+        env = gymnasium.make(voienv.ENV_ID, instance=path)
+    assert env.unwrapped.instance == case_study and loads == [path]
     with pytest.raises(OptionError, match=r"^instance: must be an Instance or the path of an instance file, got 5$"):
         gymnasium.make(voienv.ENV_ID, instance=5)
     env.reset()

@@ -118,8 +118,10 @@ class VoIEnv(gym.Env):
         self.options = dict(reward=reward, penalty=penalty, reward_units=reward_units)
         self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
         self.sample = None if instance is not None else {**SAMPLE, **_check_sample(sample)}
-        self._load(instance_mod.as_instance(instance, "instance") if instance is not None
-                   else generate_network(seed=0, **self.sample))
+        given = self.__dict__.pop("_given", None)
+        if given is None and instance is not None:
+            given = instance_mod.as_instance(instance, "instance")
+        self._load(given if given is not None else generate_network(seed=0, **self.sample))
         lat, N, K = self.lattice, self.instance.n_sensors, self.instance.n_robots
         box = lambda *shape: spaces.Box(0.0, 1.0, shape=shape, dtype=np.float32)  # noqa: E731
         obs = {"position": box(K, 2) if self.instance.fleet else box(2), "aoi": box(N), "q": box(N), "slot": box(1)}
@@ -131,8 +133,10 @@ class VoIEnv(gym.Env):
 
     def __new__(cls, instance: Instance | None = None, *args, **kwargs):
         """A fleet instance (MODEL.md section 10) makes a FleetVoIEnv: the joint action."""
-        fleet = instance is not None and instance_mod.as_instance(instance, "instance").fleet
-        return super().__new__(FleetVoIEnv if fleet else cls)
+        given = None if instance is None else instance_mod.as_instance(instance, "instance")
+        env = super().__new__(FleetVoIEnv if given is not None and given.fleet else cls)
+        env._given = given  # a path is loaded once, here, and __init__ takes it from here
+        return env
 
     # ------------------------------------------------------------------ the instance
 
