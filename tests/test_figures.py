@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import csv
+import itertools
+
+import hypothesis.strategies as st
+from hypothesis import given
 
 import voiopt
 from voiopt.cli import main
@@ -81,12 +85,13 @@ def test_a_fleet_plot_gives_each_robot_its_colour_and_marks_its_uploads(tmp_path
 
 
 def _uploads_of(label: str) -> list[tuple[int, int]]:
-    """The (slot, sensor) pairs a label of draw_plan names: lines t3:s0 or t3-9:s0."""
+    """The (slot, sensor) pairs a label of draw_plan names: lines t3:s0, t3-9:s0 or t1-3,7:s0."""
     pairs = []
     for line in label.splitlines():
         slots, sensor = line.split(":s")
-        first, _, last = slots[1:].partition("-")
-        pairs += [(t, int(sensor)) for t in range(int(first), int(last or first) + 1)]
+        for r in slots[1:].split(","):
+            first, _, last = r.partition("-")
+            pairs += [(t, int(sensor)) for t in range(int(first), int(last or first) + 1)]
     return pairs
 
 
@@ -98,9 +103,30 @@ def test_uploads_at_one_point_share_one_label_that_names_each_slot():
     positions = [(0.0, 3.0), a, a, a, a, b, a, a]
     schedule = [None, 0, 0, 0, 1, 2, None, 0]
     labels = upload_labels(Plan(tuple(positions), tuple(schedule)))
-    assert labels == {a: "t1-3:s0\nt4:s1\nt7:s0", b: "t5:s2"}
+    assert labels == {a: "t1-3,7:s0\nt4:s1", b: "t5:s2"}  # one line per sensor
     assert sorted(p for text in labels.values() for p in _uploads_of(text)) == \
         sorted((t, u) for t, u in enumerate(schedule) if u is not None)
+
+
+@given(st.lists(st.tuples(st.integers(0, 2), st.one_of(st.none(), st.integers(0, 3))), min_size=1, max_size=60))
+def test_upload_labels_name_every_upload_once_in_a_line_per_sensor_and_few_ranges(steps):
+    """A long stay that alternates sensors used to get one line per visit (a review of the
+    fleet plot, 2026-12-03): now each line is one sensor's, with at most RANGES_PER_LINE ranges."""
+    from voiopt.plan import Plan
+    from voiopt.plots import RANGES_PER_LINE, upload_labels
+
+    positions, schedule = tuple((float(x), 0.0) for x, _ in steps), tuple(u for _, u in steps)
+    labels = upload_labels(Plan(positions, schedule))
+    named = [(t, u, point) for point, text in labels.items() for t, u in _uploads_of(text)]
+    assert sorted(named) == sorted((t, u, positions[t]) for t, u in enumerate(schedule) if u is not None)
+    for point, text in labels.items():
+        sensors = [line.split(":s")[1] for line in text.splitlines()]
+        assert all(line.count(",") < RANGES_PER_LINE for line in text.splitlines())
+        for u in set(sensors):  # a sensor's lines are together, as few as its runs of slots there need
+            here = [t for t in range(len(schedule)) if schedule[t] == int(u) and positions[t] == point]
+            runs = 1 + sum(b != a + 1 for a, b in itertools.pairwise(here))
+            first, count = sensors.index(u), sensors.count(u)
+            assert sensors[first: first + count] == [u] * count and count == -(-runs // RANGES_PER_LINE)
 
 
 def test_a_robot_that_stays_and_uploads_every_slot_gets_one_label():

@@ -73,26 +73,41 @@ _ARROW = {(0, 1): "^", (0, -1): "v", (1, 0): ">", (-1, 0): "<", (0, 0): "o"}
 ROBOT_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan")
 
 
+RANGES_PER_LINE = 3  # slot ranges on one line of an upload label before it goes on to the next
+
+
 def upload_labels(plan: Plan) -> dict[tuple[float, float], str]:
-    """One label per point where a robot uploads, so that labels never cover each other: a run
-    of consecutive slots uploading the same sensor reads t3-9:s0, and other uploads at the
-    same point follow on lines of their own, in slot order."""
-    runs: dict[tuple[float, float], list[list[int]]] = {}
+    """One label per point where a robot uploads, so that labels never cover each other: one
+    line per sensor uploaded there, in the order of its first upload, naming its slots as
+    ranges (t1-3,7,10-12:s0), at most RANGES_PER_LINE ranges a line (the rest on the next).
+    A robot that waits at a sensor for most of a long horizon gets a line or two, not one a
+    visit (until 2026-12-03 every run of slots had its own line, and tall labels covered the
+    next point's)."""
+    runs: dict[tuple[float, float], dict[int, list[list[int]]]] = {}
     for t, (point, u) in enumerate(zip(plan.positions, plan.schedule, strict=True)):
         if u is None:
             continue
-        at = runs.setdefault(point, [])
-        if at and at[-1][1] == t - 1 and at[-1][2] == u:
+        at = runs.setdefault(point, {}).setdefault(u, [])
+        if at and at[-1][1] == t - 1:
             at[-1][1] = t
         else:
-            at.append([t, t, u])
-    return {point: "\n".join(f"t{a}:s{u}" if a == b else f"t{a}-{b}:s{u}" for a, b, u in at)
-            for point, at in runs.items()}
+            at.append([t, t])
+    labels = {}
+    for point, by_sensor in runs.items():
+        lines = []
+        for u, slots in by_sensor.items():
+            ranges = [f"{a}" if a == b else f"{a}-{b}" for a, b in slots]
+            lines += [f"t{','.join(ranges[i: i + RANGES_PER_LINE])}:s{u}" for i in range(0, len(ranges), RANGES_PER_LINE)]
+        labels[point] = "\n".join(lines)
+    return labels
+
+
+_BOX = {"boxstyle": "round,pad=0.1", "facecolor": "white", "alpha": 0.75, "edgecolor": "none"}  # text over lines stays legible
 
 
 def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -> None:
     """Each robot's path in its own colour with direction markers (red where a sensor
-    uploads, labelled t{slot}:s{sensor} by ``upload_labels``), its start, sensors and their ranges."""
+    uploads, labelled t{slots}:s{sensor} by ``upload_labels``), its start, sensors and their ranges."""
     from matplotlib.patches import Circle
 
     lat = lattice_mod.build(instance)
@@ -101,7 +116,8 @@ def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -
     for i, s in enumerate(instance.sensors):
         ax.add_patch(Circle(s.position, instance.channel.d_th, fill=False, ls=":", color="tab:red", alpha=0.5))
         ax.scatter(*s.position, marker="x", s=60, color="tab:red", zorder=4)
-        ax.annotate(f"s{i} (rho {s.rho:.2f})", s.position, xytext=(4, 4), textcoords="offset points", fontsize=7, color="tab:red")
+        ax.annotate(f"s{i} (rho {s.rho:.2f})", s.position, xytext=(4, 4), textcoords="offset points", fontsize=7,
+                    color="tab:red", bbox=_BOX, zorder=7)  # above the upload labels
     fleet = len(plan.robots) > 1
     for k, robot in enumerate(plan.robots):
         colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
@@ -121,7 +137,7 @@ def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -
                        edgecolor=colour if fleet else None, linewidths=1.2 if fleet else None, zorder=3)
         for point, label in upload_labels(robot).items():
             ax.annotate(label, point, xytext=(-6, -6), textcoords="offset points", fontsize=6, va="top",
-                        color=colour if fleet else None)
+                        color=colour if fleet else None, bbox=_BOX, zorder=6)
     ax.set_xlim(-0.4, instance.width + 0.4)
     ax.set_ylim(-0.4, instance.height + 0.4)
     ax.set_aspect("equal")
