@@ -47,6 +47,32 @@ def wait_until_watching(proc: subprocess.Popen, timeout: float = 60) -> None:
     raise AssertionError(f"the process never installed its stop rule: {proc.communicate(timeout=5)}")
 
 
+def wait_until_solving(proc: subprocess.Popen, cpu_s: float = 2.0) -> None:
+    """Until a solve is past its start-up: every command catches SIGTERM from its start
+    (``stop.sigterm_raises``), before the solve's stop rule, so ``wait_until_watching`` alone
+    let a signal land while numba loaded (flaky under load, 2026-12-03). Start-up takes under a
+    second of CPU once numba's cache is warm (``warm_qlearning``); so wait for ``cpu_s`` of the
+    process's CPU time, which a busy machine delays but does not fake."""
+    wait_until_watching(proc)
+    tick = os.sysconf("SC_CLK_TCK")
+    end = time.monotonic() + 60
+    while time.monotonic() < end:
+        try:
+            fields = Path(f"/proc/{proc.pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except FileNotFoundError:
+            return
+        if (int(fields[11]) + int(fields[12])) / tick >= cpu_s:  # utime + stime
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"the solve used less than {cpu_s} s of CPU in 60 s")
+
+
+@pytest.fixture
+def warm_qlearning():
+    """numba's cache of the Q-learning kernels, filled (a fresh clone compiles them once)."""
+    voiopt.solve(voiopt.case_study(), method="qlearning", episodes=10)
+
+
 def one_line(stderr: str) -> str:
     lines = [line for line in stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and "Traceback" not in stderr, stderr
@@ -121,11 +147,10 @@ def test_a_stored_interrupted_run_is_not_done(tmp_path):
 
 
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
-def test_an_interrupted_solve_exits_non_zero_and_keeps_its_best_plan(tmp_path, sig, code):
+def test_an_interrupted_solve_exits_non_zero_and_keeps_its_best_plan(tmp_path, sig, code, warm_qlearning):
     out = tmp_path / "r.json"
     proc = voiopt_cmd("solve", CASE, "--method", "qlearning", "--episodes", "1e9", "-o", str(out), "--quiet")
-    wait_until_watching(proc)
-    time.sleep(0.5)
+    wait_until_solving(proc)
     proc.send_signal(sig)
     _, stderr = proc.communicate(timeout=20)
     assert proc.returncode == code, stderr
@@ -305,10 +330,9 @@ def test_an_unknown_plot_suffix_is_rejected(tmp_path):
 
 
 @pytest.mark.parametrize("args, kept", [([], "not kept (-o FILE keeps it)"), (["--json"], "printed above (--json)")])
-def test_an_interrupted_solve_says_where_its_best_plan_went(args, kept):
+def test_an_interrupted_solve_says_where_its_best_plan_went(args, kept, warm_qlearning):
     proc = voiopt_cmd("solve", CASE, "--method", "qlearning", "--episodes", "1e9", *args)
-    wait_until_watching(proc)
-    time.sleep(0.5)
+    wait_until_solving(proc)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=20)
     assert proc.returncode == 130, stderr
