@@ -173,31 +173,40 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
     and is neither a file nor a folder (a device such as /dev/null, a named pipe) is written
     into as open() would, not replaced by a file."""
     p, special = _destination(path)
+    mode = {"mode": "wb"} if binary else {"mode": "w", "encoding": "utf-8", "newline": newline}
     if special:
         fd = _descriptor(p)  # /dev/stdout and the like: the process's own descriptor, as a shell writes to it
         if fd is not None:
             sys.stdout.flush()
         raw = os.dup(fd) if fd is not None else os.open(p, os.O_WRONLY | os.O_APPEND | getattr(os, "O_BINARY", 0))
-        with os.fdopen(raw, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": newline})) as f:
+        with os.fdopen(raw, **mode) as f:
             yield f
         return
+    create = lambda tmp: os.fdopen(  # noqa: E731
+        os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666), **mode)
+    with _renamed_over(p, lambda token: f".{p.name}.{token}.tmp", create) as f, f:
+        yield f
+
+
+@contextmanager
+def _renamed_over(p: Path, name, make=lambda tmp: tmp):
+    """The temporary file of both writers: draws a fresh name beside ``p`` (``name(token)``),
+    yields ``make(tmp)`` (which may create the file: one that exists, another's, draws a new
+    name), then renames the temporary file over ``p`` when the block finishes, and removes it
+    if the block does not (a SIGTERM raises meanwhile, so it is removed then too). The name is
+    held before the file is made, so that a Ctrl-C at any moment of the making removes it."""
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = None
     with sigterm_raises():
         try:
             while True:
-                tmp = p.parent / f".{p.name}.{secrets.token_hex(4)}.tmp"
+                tmp = p.parent / name(secrets.token_hex(4))
                 try:
-                    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+                    made = make(tmp)
                     break
                 except FileExistsError:
-                    continue
-            if binary:
-                f = os.fdopen(fd, "wb")
-            else:
-                f = os.fdopen(fd, "w", encoding="utf-8", newline=newline)
-            with f:
-                yield f
+                    tmp = None
+            yield made
             os.replace(tmp, p)
         except BaseException:
             if tmp is not None:
@@ -238,16 +247,9 @@ def atomic_path(path: str | os.PathLike):
     if special:
         yield p
         return
-    p.parent.mkdir(parents=True, exist_ok=True)
     suffix = Path(path).suffix  # the name the user gave picks the format, not a link's target
-    tmp = p.parent / f".{p.stem}.{secrets.token_hex(4)}.tmp{suffix}"
-    with sigterm_raises():
-        try:
-            yield tmp
-            os.replace(tmp, p)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
+    with _renamed_over(p, lambda token: f".{p.stem}.{token}.tmp{suffix}") as tmp:
+        yield tmp
 
 
 def write_json_atomic(path: str | os.PathLike, obj: Any) -> None:
