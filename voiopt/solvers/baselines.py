@@ -73,23 +73,35 @@ class _Slot:
 
         Score: leximin of the VoI vector (lowest VoI first), or for AoI objectives the leximax
         of the ages negated, so ties on the bottleneck are broken by the next-worst sensor.
-        With thousands of sensors in range a step values millions of (sensor, upload) pairs
-        (10,000 sensors: 30 s), so ``stop`` is checked between blocks of them (Stopped)."""
+        A sensor's VoI depends on its own (age, q) alone, and an upload changes one sensor's:
+        so the VoI of each sensor without an upload and of each upload's sensor is computed
+        once, and each score is that vector with one entry replaced, sorted. With thousands of
+        sensors in range a step still sorts millions of entries, so ``stop`` is checked between
+        blocks of about STEP_BLOCK of them (Stopped)."""
         us = self.uploads(p)
-        A, Q = np.tile(np.asarray(aoi) + 1, (len(us), 1)), np.tile(np.asarray(dist, dtype=float), (len(us), 1))
-        rows, ups = np.arange(1, len(us)), np.asarray(us[1:], dtype=np.int64)  # row r: advance(aoi, dist, us[r], ...)
-        A[rows, ups] = 1
-        Q[rows, ups] = self.lat.distance[ups, p]
-        if self.aoi_objective:
-            rows = -np.sort(A, axis=1)[:, ::-1]
+        ups = np.asarray(us[1:], dtype=np.int64)
+        a_next, dist = np.asarray(aoi, dtype=np.int64) + 1, np.asarray(dist, dtype=float)
+        d_up = self.lat.distance[ups, p]
+        if self.aoi_objective:  # the ages largest first, negated: the negated ages in ascending order
+            base, new = -a_next, np.full(len(ups), -1, dtype=np.int64)
         else:
-            rows = np.sort(physics.voi_blocks(A, Q, self.rho[None, :], self.power[None, :], self.inst.channel, axis=0,
-                                              block=STEP_BLOCK, stop=stop), axis=1)
-        scores = []
-        for r in range(0, len(us), 256):
+            base = np.asarray(physics.voi(a_next, dist, self.rho, self.power, self.inst.channel))
+            new = np.asarray(physics.voi(np.ones(len(ups)), d_up, self.rho[ups], self.power[ups], self.inst.channel))
+        out = []
+        rows = max(1, STEP_BLOCK // max(1, len(base)))
+        for lo in range(0, len(us), rows):
             halt_if_asked(stop)
-            scores += map(tuple, rows[r: r + 256])
-        return [(u, A[r], Q[r], scores[r]) for r, u in enumerate(us)]
+            hi = min(lo + rows, len(us))
+            block = np.tile(base, (hi - lo, 1))
+            for r in range(max(lo, 1), hi):  # row r uploads us[r] = ups[r - 1]
+                block[r - lo, ups[r - 1]] = new[r - 1]
+            block.sort(axis=1)
+            for r, score in zip(range(lo, hi), map(tuple, block), strict=True):
+                a1, q1 = a_next.copy(), dist.copy()
+                if r:
+                    a1[ups[r - 1]], q1[ups[r - 1]] = 1, d_up[r - 1]
+                out.append((us[r], a1, q1, score))
+        return out
 
     def voi(self, aoi: np.ndarray, dist: np.ndarray) -> np.ndarray:
         return physics.voi(aoi, dist, self.rho, self.power, self.inst.channel)
