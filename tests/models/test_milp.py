@@ -115,3 +115,42 @@ def test_covering_is_none_when_unreachable():
     top = st.best_worth()[1:].min()
     assert milp.build_covering(inst, "min-voi", float(np.nextafter(st.candidates().max(), np.inf))) is None
     assert milp.build_covering(inst, "min-voi", float(top)) is not None
+
+
+def test_the_cap_on_a_slots_least_worth_holds_for_every_legal_plan():
+    """z_t <= min_worth_cap()[t]: one robot uploads one sensor a slot, so some sensor's best
+    upload so far is N slots old (N/K with K robots), or it holds its initial packet. Checked
+    against every legal plan the oracle enumerates, for VoI and AoI worths, on tiny networks,
+    two-robot fleets and the extreme-worth networks (rho 1e-6, where the cap is a million
+    times below the old one: HiGHS then claimed optimal a plan 5e-4 below the optimum)."""
+    import json
+    from pathlib import Path
+
+    from conftest import fleet_instances
+    from oracles import model_oracle as oracle
+
+    from voiopt.instance import from_dict
+    from voiopt.models.uploads import structure
+
+    extreme = json.loads((Path(__file__).resolve().parents[1] / "data" / "milp_extreme_worths.json").read_text())
+    nets = [*tiny_instances(12), *fleet_instances(6), *map(from_dict, extreme)]
+    tighter = checked = 0
+    for inst in nets:
+        d = inst.to_dict()
+        if oracle.count_legal_plans(d) > 20_000:
+            continue
+        o = oracle._parse(d)
+        caps = {kind: structure(inst, kind).min_worth_cap() for kind in ("voi", "aoi")}
+        plain = structure(inst, "voi").best_worth().min(axis=1)
+        tighter += bool((caps["voi"][1:] < plain[1:] * (1 - 1e-9)).any())
+        for trajs in oracle._iter_trajs(o):
+            aoi, q = [s.a0 for s in o.sensors], [s.q0 for s in o.sensors]
+            for t in range(inst.horizon):
+                ups = {sched[t]: o.distance(pos[t], sched[t]) for pos, sched in trajs if sched[t] is not None}
+                for i in range(len(aoi)):
+                    aoi[i], q[i] = (1, ups[i]) if i in ups else (aoi[i] + 1, q[i])
+                least = min(oracle._voi(o, i, aoi[i], q[i]) for i in range(len(aoi)))
+                assert least <= caps["voi"][t + 1] * (1 + 1e-9) + 1e-300, (inst.name, t + 1, trajs)
+                assert -max(aoi) <= caps["aoi"][t + 1], (inst.name, t + 1, trajs)
+        checked += 1
+    assert checked >= 15 and tighter >= 5, (checked, tighter)

@@ -255,7 +255,7 @@ class _Run:
             self.details["build_s"] += time.perf_counter() - t
             self.details["note"] = "stopped while the uploads' worths were computed (T^2 of them); the plan is the warm start's"
             return self.stop.reason, None
-        top = int(np.searchsorted(cand, st.best_worth()[1:].min(), side="right")) - 1
+        top = int(np.searchsorted(cand, st.min_worth_cap()[1:].min(), side="right")) - 1
         lo = self._feasible_index(cand, self.worth(self.incumbent.value))
         hi = top  # cand[hi + 1:] are proven infeasible (or exceed the relaxation)
         self.details["build_s"] += time.perf_counter() - t

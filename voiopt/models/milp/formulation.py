@@ -136,7 +136,7 @@ def level_terms(st: Structure, per_slot: bool, stop=None) -> LevelTerms:
     numpy calls over its levels (3 s at T = 2243 for 4 sensors), so ``stop`` is checked every
     STOP_SLOTS slots: voiopt.stop.Stopped."""
     T, N = st.horizon, st.n_sensors
-    cap_t = st.best_worth()[1:].min(axis=1)  # z_t <= cap_t
+    cap_t = st.min_worth_cap()[1:]  # z_t <= cap_t
     floor_t = st.worth0[1:].min(axis=1)  # z_t >= floor_t: every sensor keeps at least its packet
     if not per_slot:
         cap_t = np.full(T, cap_t.min())
