@@ -302,3 +302,13 @@ def test_after_review_odd_plans_built_in_python_fail_as_before():
         Plan(((0, 0, 0),) * 3, (None,) * 3).to_dict()
     big = Plan.from_indices(inst, np.array([0, 1, 1], dtype=np.uint64), np.array([2**63, 0, 2**64 - 1], dtype=np.uint64))
     assert big.schedule == (2**63, 0, 2**64 - 1)  # as given: check_plan names them unknown sensors
+
+
+def test_a_sensor_just_beyond_d_th_is_named_with_the_digits_that_show_it():
+    """A sensor 1e-7 m beyond d_th was refused with "distance 1 > d_th 1" (an independent
+    oracle, 2026-12-03); the distance is shown whole when four digits would hide the excess."""
+    inst = voiopt.instance.from_dict({"area": {"width": 2, "height": 1}, "horizon": 1, "start": [0, 0],
+                                      "sensors": [{"position": [1.0000001, 0], "rho": 0.5}]})
+    with pytest.raises(PlanError, match=r"^schedule\[0\]: sensor 0 is out of range at positions\[0\] "
+                                        r"\(distance 1\.0000001 > d_th 1\)$"):
+        voiopt.evaluate(inst, {"positions": [[0, 0]], "schedule": [0]})

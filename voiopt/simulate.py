@@ -123,10 +123,9 @@ def _schedule_slot_by_slot(instance: Instance, lat, schedule, idx: np.ndarray) -
         if not 0 <= u < N:
             raise PlanError(f"schedule[{t}]: unknown sensor index {u} (the instance has {N} sensors)")
         if not lat.in_range[u, idx[t]]:
-            raise PlanError(
-                f"schedule[{t}]: sensor {u} is out of range at positions[{t}] "
-                f"(distance {lat.distance[u, idx[t]]:.4g} > d_th {instance.channel.d_th:g})"
-            )
+            d, d_th = float(lat.distance[u, idx[t]]), instance.channel.d_th
+            shown = f"{d:.4g}" if f"{d:.4g}" != f"{d_th:g}" else repr(d)  # 1.0000001, not "distance 1 > d_th 1"
+            raise PlanError(f"schedule[{t}]: sensor {u} is out of range at positions[{t}] (distance {shown} > d_th {d_th:g})")
         sched[t] = u
     return sched
 
