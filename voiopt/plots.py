@@ -117,7 +117,7 @@ def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -
         ax.add_patch(Circle(s.position, instance.channel.d_th, fill=False, ls=":", color="tab:red", alpha=0.5))
         ax.scatter(*s.position, marker="x", s=60, color="tab:red", zorder=4)
         ax.annotate(f"s{i} (rho {s.rho:.2f})", s.position, xytext=(4, 4), textcoords="offset points", fontsize=7,
-                    color="tab:red", bbox=_BOX, zorder=7)  # above the upload labels
+                    color="tab:red", bbox=_BOX, zorder=2.6)  # over the paths and upload labels, under the markers
     fleet = len(plan.robots) > 1
     for k, robot in enumerate(plan.robots):
         colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
@@ -137,7 +137,7 @@ def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -
                        edgecolor=colour if fleet else None, linewidths=1.2 if fleet else None, zorder=3)
         for point, label in upload_labels(robot).items():
             ax.annotate(label, point, xytext=(-6, -6), textcoords="offset points", fontsize=6, va="top",
-                        color=colour if fleet else None, bbox=_BOX, zorder=6)
+                        color=colour if fleet else None, bbox=_BOX, zorder=2.5)
     ax.set_xlim(-0.4, instance.width + 0.4)
     ax.set_ylim(-0.4, instance.height + 0.4)
     ax.set_aspect("equal")
