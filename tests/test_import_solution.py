@@ -203,3 +203,29 @@ def test_a_whole_solution_of_another_objectives_model_is_named_as_such(tmp_path)
     with pytest.raises(voiopt.OptionError, match=r"1 of its \d+ columns are not MODEL's \(such as 'z'\): a solution of "
                                                  r"another model \(another --objective"):
         import_solution(inst, "mean-min-voi", mean, solution)
+
+
+def test_an_exported_model_of_extreme_worths_solves_to_the_optimum(tmp_path):
+    """rho = 1e-6 (tests/data/milp_extreme_worths.json, `oracle2-tdma-a`): the exported model is
+    in units of the cap on a slot's least worth, so HiGHS at the tolerances docs/milp.md gives
+    finds dp's optimum from the file alone (in units of the first cap the worth rows spanned
+    six orders of magnitude)."""
+    import json
+
+    from voiopt.instance import from_dict
+    from voiopt.solvers.milp import TOLERANCES
+
+    data = json.loads((ROOT / "tests" / "data" / "milp_extreme_worths.json").read_text())
+    inst = from_dict(next(d for d in data if d["name"] == "oracle2-tdma-a"))
+    model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
+    export(inst, "mean-min-voi", model)
+    h = highspy.Highs()
+    h.silent()
+    for k, v in {**TOLERANCES, "mip_rel_gap": 0.0}.items():
+        h.setOptionValue(k, v)
+    h.readModel(str(model))
+    h.run()
+    h.writeSolution(str(solution), 0)
+    got = import_solution(inst, "mean-min-voi", model, solution)
+    best = voiopt.solve(inst, "dp", "mean-min-voi")
+    assert best.status == "optimal" and got.value == pytest.approx(best.value, rel=1e-9)

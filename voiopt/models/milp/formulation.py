@@ -118,11 +118,12 @@ def _base_columns(st: Structure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def default_scale(st: Structure, objective: str) -> float:
-    """A worth unit that makes the objective O(1): the mean over slots of the best worth the
-    weakest sensor could have (an upper bound on mean-min-voi). AoI objectives use 1."""
+    """A worth unit that makes the objective O(1): the mean over slots of the cap on the slot's
+    least worth (an upper bound on mean-min-voi; ``Structure.min_worth_cap``). AoI objectives
+    use 1. The solver passes its warm start's value instead; ``export`` uses this."""
     if st.kind == "aoi":
         return 1.0
-    cap = st.best_worth()[1:].min(axis=1)
+    cap = st.min_worth_cap()[1:]
     ref = float(cap.mean()) if objectives.get(objective).per_slot else float(cap.min())
     return ref if ref > 0 and math.isfinite(ref) else 1.0
 
