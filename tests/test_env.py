@@ -146,6 +146,9 @@ def test_rgb_render_is_an_image(case_study):
 @pytest.mark.parametrize("kwargs, message", [
     (dict(sample={"sensors": 6}), "sample: unknown key 'sensors' (allowed: n_sensors, "),
     (dict(sample=[4]), "sample: must be a dict"),
+    (dict(sample={"robots": 2}), "sample: robots: the env samples one-robot networks, got 2"),  # reset crashed
+    (dict(instance=str(ROOT / "instances" / "case-study.json"), sample={"n_sensors": 3}),
+     "sample: draws the networks of an env without an instance; got instance= as well"),  # sample was ignored
     (dict(reward="aoi", reward_mode="normalised"), "with reward='aoi' use reward_mode='paper'"),
     (dict(penalty=float("nan")), "penalty: must be a finite number, got nan"),
     (dict(penalty=float("inf")), "penalty: must be a finite number, got inf"),

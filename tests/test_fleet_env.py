@@ -143,6 +143,33 @@ def test_an_agents_action_is_an_integer_as_in_the_gym_env():
     assert not any(i["replaced"] for i in infos.values())
 
 
+def test_actions_that_are_no_agents_choice_and_steps_outside_an_episode_are_refused():
+    """A missing, out-of-range or None action was executed as a replacement (only conflicts are
+    replaced), a list of actions raised AttributeError and a step after the last slot
+    ValueError: min() arg is an empty sequence (a probe, 2026-12-03)."""
+    env = VoIParallelEnv(voiopt.load(ROOT / "instances" / "fleet.json"))
+    with pytest.raises(OptionError, match=r"^step: no episode is running .*call reset\(\)$"):
+        env.step({"robot_0": 0, "robot_1": 0})
+    env.reset(seed=0)
+    n = env.action_space("robot_0").n
+    for actions, message in [
+        ({"robot_0": 0}, r"^actions: no action for 'robot_1' \(every agent acts in every slot\)$"),
+        ({}, r"^actions: no action for 'robot_0'"),
+        ({"robot_0": 0, "robot_1": n}, rf"^actions\['robot_1'\]: must be in 0..{n - 1}, got {n}$"),
+        ({"robot_0": -1, "robot_1": 0}, rf"^actions\['robot_0'\]: must be in 0..{n - 1}, got -1$"),
+        ({"robot_0": None, "robot_1": 0}, r"^actions\['robot_0'\]: must be an integer"),
+        ({"robot_0": 0, "robot_1": 0, "robot_9": 0}, r"^actions: unknown agent 'robot_9' \(the agents: robot_0, robot_1\)$"),
+        ([0, 0], r"^actions: must be a dict of agent -> action, got list$"),
+    ]:
+        with pytest.raises(OptionError, match=message):
+            env.step(actions)
+    assert env.env.t == 0  # nothing was executed
+    while env.agents:
+        env.step(dict.fromkeys(env.agents, 0))
+    with pytest.raises(OptionError, match=r"^step: no episode is running"):
+        env.step({"robot_0": 0, "robot_1": 0})
+
+
 def test_core_voiopt_does_not_import_pettingzoo():
     code = "import sys, voiopt, voiopt.env; assert 'pettingzoo' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -94,6 +94,9 @@ def _check_sample(sample: Any) -> dict:
     unknown = [k for k in sample if k not in allowed]
     if unknown:
         raise OptionError(f"sample: unknown key {unknown[0]!r} (allowed: {', '.join(allowed)})")
+    if sample.get("robots", 1) != 1:  # a FleetVoIEnv is made from a fleet instance, not sampled
+        raise OptionError(f"sample: robots: the env samples one-robot networks, got {sample['robots']!r} "
+                          "(pass instance= a fleet's instance for several robots)")
     return sample
 
 
@@ -117,6 +120,8 @@ class VoIEnv(gym.Env):
         self.render_mode = render_mode
         self.options = dict(reward=reward, penalty=penalty, reward_units=reward_units)
         self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
+        if instance is not None and sample is not None:
+            raise OptionError("sample: draws the networks of an env without an instance; got instance= as well")
         self.sample = None if instance is not None else {**SAMPLE, **_check_sample(sample)}
         given = self.__dict__.pop("_given", None)
         if given is None and instance is not None:

@@ -18,10 +18,12 @@ sensor to two robots, or a way to the ends that no longer exists). Conflicts are
 deterministically in agent order: robot 0's action stands if it is in its mask; robot k's
 action stands if some legal joint action extends the actions standing for robots 0..k-1 and
 it; otherwise it is replaced by the same move without an upload if that extends them, else by
-the first action (lowest number) that does. A replaced agent's reward is reduced by ``penalty``
-and its info says ``"replaced": true`` with the action executed. The executed joint action is
-always legal, so ``plan()`` is always a legal plan. Every agent gets the team's reward of
-MODEL.md sections 7 and 10 (the penalty once per robot that uploads nothing). All agents end
+the first action (lowest number) that does. Every agent's reward is the team's reward of
+MODEL.md sections 7 and 10 (the penalty once per robot that uploads nothing), and a replaced
+agent's own reward is that less ``penalty`` (the others' are not reduced): its info says
+``"replaced": true`` with the action executed. The executed joint action is always legal, so
+``plan()`` is always a legal plan. An action that is missing, not an integer or outside the
+agent's space is refused (OptionError), as is a step outside an episode. All agents end
 together after T steps.
 """
 
@@ -31,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from voiopt.errors import MissingExtraError
+from voiopt.errors import MissingExtraError, OptionError
 
 try:
     from gymnasium import spaces
@@ -103,17 +105,25 @@ class VoIParallelEnv(ParallelEnv):
         kept: tuple[int, ...] = ()
         replaced = []
         for agent in self.possible_agents:
-            a = actions.get(agent)
-            a = -1 if a is None else as_integer(a, what=f"actions[{agent!r}]")  # 0.7 is refused, not action 0
-            a = a if 0 <= a < self._n else -1
+            a = self._check(actions, agent)
             if kept + (a,) in prefixes:
                 kept, swap = kept + (a,), False
             else:
-                stay = a % 5 if a >= 0 else 0
+                stay = a % 5
                 choice = stay if kept + (stay,) in prefixes else min(x for x in range(self._n) if kept + (x,) in prefixes)
                 kept, swap = kept + (choice,), True
             replaced.append(swap)
         return kept, replaced
+
+    def _check(self, actions: dict[str, Any], agent: str) -> int:
+        """The agent's action as an int in its space: one that is missing, of another type or
+        out of range is refused (OptionError), not replaced as a conflict would be."""
+        if agent not in actions:
+            raise OptionError(f"actions: no action for {agent!r} (every agent acts in every slot)")
+        a = as_integer(actions[agent], f"an integer in 0..{self._n - 1}", what=f"actions[{agent!r}]")  # 0.7 is refused
+        if not 0 <= a < self._n:
+            raise OptionError(f"actions[{agent!r}]: must be in 0..{self._n - 1}, got {a}")
+        return a
 
     # ------------------------------------------------------------------ PettingZoo API
 
@@ -126,6 +136,13 @@ class VoIParallelEnv(ParallelEnv):
         return self._observations(obs), {a: {"slot": 0} for a in self.agents}
 
     def step(self, actions: dict[str, Any]):
+        if not self.agents:
+            raise OptionError("step: no episode is running (before reset(), or after the last slot): call reset()")
+        if not isinstance(actions, dict):
+            raise OptionError(f"actions: must be a dict of agent -> action, got {type(actions).__name__}")
+        unknown = sorted(set(actions) - set(self.possible_agents), key=str)
+        if unknown:
+            raise OptionError(f"actions: unknown agent {unknown[0]!r} (the agents: {', '.join(self.possible_agents)})")
         joint, replaced = self._resolve(actions)
         obs, reward, terminated, truncated, info = self.env.step(self._join(joint))
         rewards = {a: reward - (self.penalty if r else 0.0) for a, r in zip(self.possible_agents, replaced, strict=True)}
