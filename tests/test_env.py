@@ -214,3 +214,13 @@ def test_the_api_takes_a_path_and_refuses_what_is_no_instance_in_one_line(case_s
         env.step(int(env.unwrapped.action_masks().argmax()))
     with pytest.raises(OptionError, match=r"^step: the episode has ended \(slot 10 of 10\): call reset\(\)$"):
         env.step(0)
+
+
+def test_a_step_before_reset_is_refused(case_study):
+    """Made directly (not by gymnasium.make, whose wrapper enforces the order), the env stepped
+    from its start state without a reset (a probe, 2026-12-03)."""
+    env = voienv.VoIEnv(case_study)
+    with pytest.raises(OptionError, match=r"^step: no episode has started: call reset\(\) first$"):
+        env.step(0)
+    env.reset(seed=0)
+    env.step(int(env.action_masks().argmax()))

@@ -123,6 +123,7 @@ class VoIEnv(gym.Env):
         if instance is not None and sample is not None:
             raise OptionError("sample: draws the networks of an env without an instance; got instance= as well")
         self.sample = None if instance is not None else {**SAMPLE, **_check_sample(sample)}
+        self._started = False  # by reset(): a step before it is refused (gymnasium.make's wrapper does the same)
         given = self.__dict__.pop("_given", None)
         if given is None and instance is not None:
             given = instance_mod.as_instance(instance, "instance")
@@ -203,6 +204,7 @@ class VoIEnv(gym.Env):
             self._load(generate_network(seed=int(self.np_random.integers(2**63)), **self.sample))
         else:
             self._restart()
+        self._started = True
         return self._obs(), self._info()
 
     def _check_fits(self, inst: Instance) -> None:
@@ -232,6 +234,8 @@ class VoIEnv(gym.Env):
         a = as_integer(action, f"an integer in 0..{self.action_space.n - 1}")
         if not 0 <= a < self.action_space.n:
             raise OptionError(f"action: must be in 0..{self.action_space.n - 1}, got {action!r}")
+        if not self._started:
+            raise OptionError("step: no episode has started: call reset() first")
         if self.t >= self.instance.horizon:
             raise OptionError(f"step: the episode has ended (slot {self.t} of {self.instance.horizon}): call reset()")
         return a
