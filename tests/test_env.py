@@ -224,3 +224,6 @@ def test_a_step_before_reset_is_refused(case_study):
         env.step(0)
     env.reset(seed=0)
     env.step(int(env.action_masks().argmax()))
+    for bad in ([1], "x"):  # read as unknown keys 1 and 'x' before
+        with pytest.raises(OptionError, match=r"^options: must be a dict such as \{'instance': path\}, got "):
+            env.reset(options=bad)

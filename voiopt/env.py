@@ -192,7 +192,9 @@ class VoIEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        options = options or {}
+        options = {} if options is None else options
+        if not isinstance(options, dict):
+            raise OptionError(f"options: must be a dict such as {{'instance': path}}, got {options!r}")
         unknown = set(options) - {"instance"}
         if unknown:
             raise OptionError(f"options: unknown key {sorted(unknown)[0]!r} (allowed: instance)")
