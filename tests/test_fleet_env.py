@@ -168,6 +168,8 @@ def test_actions_that_are_no_agents_choice_and_steps_outside_an_episode_are_refu
         env.step(dict.fromkeys(env.agents, 0))
     with pytest.raises(OptionError, match=r"^step: no episode is running"):
         env.step({"robot_0": 0, "robot_1": 0})
+    with pytest.raises(OptionError, match=r"^options: must be a dict"):
+        env.reset(options=[1])
 
 
 def test_core_voiopt_does_not_import_pettingzoo():

@@ -130,6 +130,8 @@ class VoIParallelEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict | None = None):
         """``options={"instance": ...}`` loads an instance of the same shape, as the Gym env's
         reset does; other keys are ignored (PettingZoo's API test passes some)."""
+        if options is not None and not isinstance(options, dict):
+            raise OptionError(f"options: must be a dict such as {{'instance': path}}, got {options!r}")
         given = {k: v for k, v in (options or {}).items() if k == "instance"}
         obs, _ = self.env.reset(seed=seed, options=given or None)
         self.agents = list(self.possible_agents)
