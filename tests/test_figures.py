@@ -144,3 +144,17 @@ def test_a_robot_that_stays_and_uploads_every_slot_gets_one_label():
     draw_plan(ax, inst, plan)
     assert [t.get_text() for t in ax.texts if t.get_text().startswith("t")] == [f"t0-{inst.horizon - 1}:s0"]
     plt.close(fig)
+
+
+def test_the_confidence_interval_over_few_networks_uses_students_t():
+    """1.96 s / sqrt(n) was reported: 6.5 times too narrow at 2 networks (an independent check
+    of the figures, 2026-12-03). t(0.975; 2) = 4.3027, t(0.975; 4) = 2.7764 (tables)."""
+    import math
+
+    import pytest
+
+    from voiopt.experiments.paper import ci95
+
+    assert ci95([1.0, 2.0, 3.0]) == pytest.approx(4.3027 / math.sqrt(3), rel=1e-4)  # sd 1
+    assert ci95([2.0, 4.0, 4.0, 4.0, 6.0]) == pytest.approx(2.7764 * math.sqrt(2) / math.sqrt(5), rel=1e-4)
+    assert ci95([5.0]) is None
