@@ -239,7 +239,7 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
     stated = result.get("value")
     if stated is not None and (isinstance(stated, bool) or not isinstance(stated, (int, float))
                                or not finite(stated)):
-        raise OptionError(f"{source}: value: must be a finite number (or absent), got {show(stated)}")
+        raise OptionError(f"{source}: value: must be a finite number (or null, or absent), got {show(stated)}")
     try:
         metrics = simulate(inst, Plan.from_dict({"plan": result["plan"]})).metrics  # errors name plan.
     except PlanError as e:  # the instance it was checked against, which a plan of another one would not fit
