@@ -206,10 +206,11 @@ def test_a_whole_solution_of_another_objectives_model_is_named_as_such(tmp_path)
 
 
 def test_an_exported_model_of_extreme_worths_solves_to_the_optimum(tmp_path):
-    """rho = 1e-6 (tests/data/milp_extreme_worths.json, `oracle2-tdma-a`): the exported model is
-    in units of the cap on a slot's least worth, so HiGHS at the tolerances docs/milp.md gives
-    finds dp's optimum from the file alone (in units of the first cap the worth rows spanned
-    six orders of magnitude)."""
+    """rho = 1e-6 (tests/data/milp_extreme_worths.json, `oracle2-tdma-a`): with the TDMA cap on
+    a slot's least worth in its rows (619e373), HiGHS at the tolerances docs/milp.md gives finds
+    dp's optimum from the exported file alone; before, the worth rows spanned six orders of
+    magnitude and it stopped 5e-4 short. (The model's unit, now the same cap, does not decide
+    it: a review found the old unit gives the optimum too.)"""
     import json
 
     from voiopt.instance import from_dict

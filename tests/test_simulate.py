@@ -307,8 +307,12 @@ def test_after_review_odd_plans_built_in_python_fail_as_before():
 def test_a_sensor_just_beyond_d_th_is_named_with_the_digits_that_show_it():
     """A sensor 1e-7 m beyond d_th was refused with "distance 1 > d_th 1" (an independent
     oracle, 2026-12-03); the distance is shown whole when four digits would hide the excess."""
-    inst = voiopt.instance.from_dict({"area": {"width": 2, "height": 1}, "horizon": 1, "start": [0, 0],
-                                      "sensors": [{"position": [1.0000001, 0], "rho": 0.5}]})
-    with pytest.raises(PlanError, match=r"^schedule\[0\]: sensor 0 is out of range at positions\[0\] "
-                                        r"\(distance 1\.0000001 > d_th 1\)$"):
-        voiopt.evaluate(inst, {"positions": [[0, 0]], "schedule": [0]})
+    for x, d_th, shown in [(1.0000001, 1.0, "distance 1.0000001 > d_th 1.0"),
+                           (1.00005, 1.00004, "distance 1.00005 > d_th 1.00004"),  # a review: "distance 1 > d_th 1.00004"
+                           (1.0, 0.99999, "distance 1 > d_th 0.99999"),
+                           (1.5, 1.0, "distance 1.5 > d_th 1)")]:
+        inst = voiopt.instance.from_dict({"area": {"width": 2, "height": 1}, "horizon": 1, "start": [0, 0],
+                                          "channel": {"d_th": d_th}, "sensors": [{"position": [x, 0], "rho": 0.5}]})
+        with pytest.raises(PlanError) as e:
+            voiopt.evaluate(inst, {"positions": [[0, 0]], "schedule": [0]})
+        assert str(e.value).startswith("schedule[0]: sensor 0 is out of range at positions[0] (") and shown in str(e.value)

@@ -124,8 +124,10 @@ def _schedule_slot_by_slot(instance: Instance, lat, schedule, idx: np.ndarray) -
             raise PlanError(f"schedule[{t}]: unknown sensor index {u} (the instance has {N} sensors)")
         if not lat.in_range[u, idx[t]]:
             d, d_th = float(lat.distance[u, idx[t]]), instance.channel.d_th
-            shown = f"{d:.4g}" if f"{d:.4g}" != f"{d_th:g}" else repr(d)  # 1.0000001, not "distance 1 > d_th 1"
-            raise PlanError(f"schedule[{t}]: sensor {u} is out of range at positions[{t}] (distance {shown} > d_th {d_th:g})")
+            shown, limit = f"{d:.4g}", f"{d_th:g}"
+            if float(shown) <= float(limit):  # rounding would hide the excess: "distance 1 > d_th 1"
+                shown, limit = repr(d), repr(d_th)
+            raise PlanError(f"schedule[{t}]: sensor {u} is out of range at positions[{t}] (distance {shown} > d_th {limit})")
         sched[t] = u
     return sched
 
