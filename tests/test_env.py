@@ -153,6 +153,7 @@ def test_rgb_render_is_an_image(case_study):
     (dict(penalty=float("nan")), "penalty: must be a finite number, got nan"),
     (dict(penalty=float("inf")), "penalty: must be a finite number, got inf"),
     (dict(penalty="100"), "penalty: must be a finite number, got '100'"),
+    (dict(observe_sensors="no"), "observe_sensors: must be True or False, got 'no'"),  # taken as true before
 ])
 def test_options_that_would_be_ignored_or_poison_the_rewards_are_refused(kwargs, message):
     with pytest.raises(OptionError) as e:

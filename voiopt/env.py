@@ -117,6 +117,8 @@ class VoIEnv(gym.Env):
                               f"with reward={reward!r} use reward_mode='paper'")
         if infeasible not in INFEASIBLE:
             raise OptionError(f"infeasible: must be 'raise' or 'penalise', got {infeasible!r}")
+        if not isinstance(observe_sensors, (bool, np.bool_)):  # "no" would be true
+            raise OptionError(f"observe_sensors: must be True or False, got {observe_sensors!r}")
         self.render_mode = render_mode
         self.options = dict(reward=reward, penalty=penalty, reward_units=reward_units)
         self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
