@@ -21,6 +21,12 @@ class MemoryLimitError(OptionError):
     """The work would pass the memory limit before it has any plan to return."""
 
 
+def first_line(text, fallback: str = "", limit: int | None = 200) -> str:
+    """The first line of a message (another library's, over several lines), at most ``limit``
+    characters; ``fallback`` if it has none (an exception without words: its type's name)."""
+    return (str(text).strip().splitlines() or [fallback])[0][:limit]
+
+
 def check_seed(seed) -> None:
     """A seed, of a generator or a randomised method: an integer >= 0 (numpy's generators take
     no other)."""

@@ -34,6 +34,7 @@ from voiopt.errors import (
     check_episodes,
     check_seed,
     check_stream_seeds,
+    first_line,
 )
 from voiopt.instance import Instance
 from voiopt.models.mdp import check_reward_units
@@ -146,7 +147,7 @@ def check_scheduler(dask_scheduler: str | None) -> None:
                 warnings.simplefilter("ignore")
                 resolve_address(dask_scheduler)
         except Exception as e:  # no such host (OSError), not an address (ValueError), a protocol not installed
-            why = (str(e).strip().splitlines() or [type(e).__name__])[0]
+            why = first_line(e, type(e).__name__, limit=None)
             raise OptionError(f"--dask-scheduler: {dask_scheduler!r} is no scheduler address "
                               f"(tcp://HOST:PORT or 'local'): {why}") from None
 
@@ -272,8 +273,8 @@ def _client(Client, address: str):
     if isinstance(e, (OSError, ValueError)):  # unreachable, or not an address (ValueError)
         raise OptionError(f"--dask-scheduler: cannot reach {address}: {e}") from None
     # a service that is not Dask (ssh: a frame "length" of exabytes, MemoryError)
-    why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
-    raise OptionError(f"--dask-scheduler: {address} did not answer as a Dask scheduler: {why}") from None
+    raise OptionError(f"--dask-scheduler: {address} did not answer as a Dask scheduler: "
+                      f"{first_line(e, type(e).__name__)}") from None
 
 
 @contextmanager

@@ -28,7 +28,7 @@ from voiopt._files import (
     safe_name,
     write_json_atomic,
 )
-from voiopt.errors import OptionError, PlanError, VoioptError
+from voiopt.errors import OptionError, PlanError, VoioptError, first_line
 from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance, show
 from voiopt.objectives import OBJECTIVES, best, better, check_objective, gap, tightest
@@ -317,10 +317,6 @@ def score_files(paths: list[str]) -> tuple[list[dict[str, Any]], list[VoioptErro
 # ------------------------------------------------------------------------- certification
 
 
-def _first_line(text: Any) -> str:
-    return (str(text).strip().splitlines() or [""])[0][:200]
-
-
 def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dict[str, Any]:
     """One certificate from the certifying runs of an instance and objective: the best
     simulated plan and the tightest proven bound. Two proofs of optimality must agree."""
@@ -333,7 +329,7 @@ def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dic
                                   f"proves {b.value!r}: the exact methods disagree")
     with_plan = [r for r in results if r.plan is not None and r.value is not None]
     if not with_plan:  # each run's own words: a memory limit, say, said only in the --work files before
-        why = "; ".join(f"{r.method}: {r.status}" + (f" ({_first_line(r.solver.get('error') or r.solver.get('stopped'))})"
+        why = "; ".join(f"{r.method}: {r.status}" + (f" ({first_line(r.solver.get('error') or r.solver.get('stopped'))})"
                                                     if r.solver.get("error") or r.solver.get("stopped") else "")
                         for r in results)
         raise VoioptError(f"certify: {inst.name} {objective}: no method returned a plan ({why or 'no runs'})")
