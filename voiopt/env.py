@@ -84,6 +84,15 @@ def as_integer(action: Any, must: str = "an integer", what: str = "action") -> i
     return int(whole)
 
 
+def reset_options(options: Any) -> dict:
+    """reset()'s options as a dict ({} for None); anything else is refused in one line."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise OptionError(f"options: must be a dict such as {{'instance': path}}, got {options!r}")
+    return options
+
+
 def _check_sample(sample: Any) -> dict:
     """The keyword arguments of voiopt.generate for sampled networks (without ``seed``)."""
     if sample is None:
@@ -194,9 +203,7 @@ class VoIEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        options = {} if options is None else options
-        if not isinstance(options, dict):
-            raise OptionError(f"options: must be a dict such as {{'instance': path}}, got {options!r}")
+        options = reset_options(options)
         unknown = set(options) - {"instance"}
         if unknown:
             raise OptionError(f"options: unknown key {sorted(unknown)[0]!r} (allowed: instance)")

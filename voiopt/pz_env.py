@@ -41,7 +41,7 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the installed extras
     raise MissingExtraError(e.name or "pettingzoo", "rl") from e
 
-from voiopt.env import VoIEnv, as_integer
+from voiopt.env import VoIEnv, as_integer, reset_options
 from voiopt.instance import Instance
 from voiopt.models import mdp as mdp_mod
 from voiopt.plan import FleetPlan, Plan
@@ -130,9 +130,7 @@ class VoIParallelEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict | None = None):
         """``options={"instance": ...}`` loads an instance of the same shape, as the Gym env's
         reset does; other keys are ignored (PettingZoo's API test passes some)."""
-        if options is not None and not isinstance(options, dict):
-            raise OptionError(f"options: must be a dict such as {{'instance': path}}, got {options!r}")
-        given = {k: v for k, v in (options or {}).items() if k == "instance"}
+        given = {k: v for k, v in reset_options(options).items() if k == "instance"}
         obs, _ = self.env.reset(seed=seed, options=given or None)
         self.agents = list(self.possible_agents)
         return self._observations(obs), {a: {"slot": 0} for a in self.agents}
