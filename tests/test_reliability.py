@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import pty
+import select
 import signal
 import stat
 import subprocess
@@ -98,7 +100,7 @@ def nets(tmp_path_factory):
 # ------------------------------------------------------------------------------ stopping
 
 
-@pytest.mark.parametrize("sig, code, workers", [(signal.SIGINT, 130, "1"), (signal.SIGTERM, 143, "2")])
+@pytest.mark.parametrize("sig, code, workers", [(signal.SIGINT, 130, "1"), (signal.SIGTERM, 143, "2"), (signal.SIGHUP, 129, "2")])
 def test_a_signal_stops_the_whole_sweep_keeps_what_finished_and_stores_no_interrupted_run(
         tmp_path, nets, sig, code, workers):
     out = tmp_path / "report"
@@ -157,6 +159,42 @@ def test_an_interrupted_solve_exits_non_zero_and_keeps_its_best_plan(tmp_path, s
     assert f"the best plan so far is written to {out}" in one_line(stderr)
     result = voiopt.load_result(out)
     assert result.status == "interrupted" and result.value == voiopt.evaluate(voiopt.case_study(), result.plan)[result.objective]
+
+
+def test_a_solve_whose_terminal_hangs_up_keeps_its_best_plan(tmp_path, warm_qlearning):
+    """An ssh connection that drops: the terminal hangs up, the process gets SIGHUP and every
+    write to the terminal fails. The solve stops as on Ctrl-C, writes its -o file and exits 129
+    (until 2026-12-03 SIGHUP killed it and nothing was written)."""
+    out = tmp_path / "r.json"
+    pid, fd = pty.fork()  # the child leads a session whose controlling terminal is the pty
+    if pid == 0:
+        try:
+            os.chdir(ROOT)
+            os.execv(sys.executable, [sys.executable, "-m", "voiopt", "solve", CASE, "--method", "qlearning",
+                                      "--episodes", "1e9", "-o", str(out)])
+        finally:
+            os._exit(127)
+    seen = b""
+    end = time.monotonic() + 60
+    while b"greedy plan" not in seen and time.monotonic() < end:  # the progress bar: solving
+        if select.select([fd], [], [], 0.2)[0]:
+            seen += os.read(fd, 65536)
+    os.close(fd)  # the terminal hangs up
+    _, status = os.waitpid(pid, 0)
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 129, (status, seen[-300:])
+    result = voiopt.load_result(out)
+    assert result.status == "interrupted" and result.solver["stopped"].startswith("interrupted by SIGHUP")
+
+
+def test_a_hang_up_ignored_as_under_nohup_stays_ignored(tmp_path, warm_qlearning):
+    out = tmp_path / "r.json"
+    proc = voiopt_cmd("solve", CASE, "--method", "qlearning", "--episodes", "1e9", "--time-limit", "4",
+                      "-o", str(out), "--quiet", preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    wait_until_solving(proc)
+    proc.send_signal(signal.SIGHUP)
+    _, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == 0, stderr
+    assert voiopt.load_result(out).status == "time_limit"
 
 
 def test_a_second_ctrl_c_exits_at_once():

@@ -1,11 +1,12 @@
 """One stop rule for every solver, sweep and figure run: a time limit, a memory limit, or a
-request by Ctrl-C or SIGTERM. Long work calls ``stop.check()`` at safe points and, once it
+request by Ctrl-C, SIGTERM or SIGHUP (the terminal hung up). Long work calls ``stop.check()`` at safe points and, once it
 says why, returns its best plan and proven bound with that reason as the status."""
 
 from __future__ import annotations
 
 import os
 import signal
+import stat
 import threading
 import time
 from contextlib import contextmanager
@@ -93,7 +94,7 @@ def halt_if_asked(stop: Stop | None, memory_used: float = 0.0) -> None:
 
 class Interrupted(KeyboardInterrupt):
     """Work stopped by a signal as a whole (a sweep, or a second Ctrl-C). ``exit_code`` is
-    128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM."""
+    128 + the signal number: 130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP."""
 
     def __init__(self, signum: int | None = None) -> None:
         self.signum = signum or signal.SIGINT
@@ -107,7 +108,7 @@ class Interrupted(KeyboardInterrupt):
         return (Interrupted, (int(self.signum),))
 
 
-_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 _active: list[Stop] = []  # the Stops of the watches open in the main thread, outermost first
 _previous: dict = {}  # the handlers before the outermost watch
 
@@ -126,8 +127,33 @@ def signals_seen() -> int:
     return len(_last_signal)
 
 
+def _silence_lost_terminal() -> None:
+    """After a SIGHUP: standard streams on a terminal that has hung up fail every write (EIO),
+    which would end the command in a traceback before it writes its ``-o`` file; point them at
+    /dev/null instead. A terminal still there (a ``kill -HUP`` by hand) answers ``isatty`` and
+    keeps its output; files and pipes are not character devices and are left alone."""
+    try:
+        null = os.open(os.devnull, os.O_RDWR)
+    except OSError:
+        return
+    for fd in (0, 1, 2):
+        try:
+            if stat.S_ISCHR(os.fstat(fd).st_mode) and not os.isatty(fd):  # a hung-up terminal fails isatty
+                os.dup2(null, fd)
+        except OSError:  # fd not open
+            pass
+    os.close(null)
+
+
+def _catches(signum: int) -> bool:
+    """Whether a watch takes over this signal: a hang-up ignored (``nohup``) stays ignored."""
+    return signum != signal.SIGHUP or signal.getsignal(signum) is not signal.SIG_IGN
+
+
 def _handler(signum, frame) -> None:
     _last_signal.append(signum)
+    if signum == signal.SIGHUP:
+        _silence_lost_terminal()
     if any(s.reason == INTERRUPTED for s in _active):  # the second request: stop at once
         _restore()
         raise Interrupted(signum)
@@ -143,8 +169,8 @@ def _restore() -> None:
 
 @contextmanager
 def watch(time_limit: float | None = None, memory_limit: float | None = None, labels_limit: int | None = None):
-    """A Stop for the block. In the main thread the first Ctrl-C or SIGTERM requests a stop of
-    every watch open (a sweep and the solve inside it alike); a second one raises Interrupted
+    """A Stop for the block. In the main thread the first Ctrl-C, SIGTERM or SIGHUP (unless
+    ignored, as under ``nohup``) requests a stop of every watch open (a sweep and the solve inside it alike); a second one raises Interrupted
     at once. Elsewhere (worker threads) signals cannot be caught and only the limits apply."""
     stop = Stop(time_limit, memory_limit, labels_limit)
     if threading.current_thread() is not threading.main_thread():
@@ -158,8 +184,8 @@ def watch(time_limit: float | None = None, memory_limit: float | None = None, la
     try:  # a signal raising anywhere in the set-up (a command's SIGTERM, a first Ctrl-C) leaves no stale watch
         _active.append(stop)  # before the handler goes in: no signal can fall between the two
         if len(_active) == 1:
-            _previous.update({s: signal.getsignal(s) for s in _SIGNALS})
-            for s in _SIGNALS:
+            _previous.update({s: signal.getsignal(s) for s in _SIGNALS if _catches(s)})
+            for s in list(_previous):
                 signal.signal(s, _handler)
         yield stop
     finally:
@@ -204,17 +230,23 @@ def sigterm_raises():
     outright (its default action, as after a solve's stop rule is gone) raises Interrupted
     instead, so that a temporary file is removed and the command ends with status 143 and a
     line that says so (a fuzz campaign found .tmp files left by a second signal during the
-    write of a result; a probe, a silent end of `bench score`). Only in the main thread and
-    where SIGTERM has its default action; a solve's stop rule installs its own meanwhile."""
-    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+    write of a result; a probe, a silent end of `bench score`). A SIGHUP likewise (the terminal
+    hung up). Only in the main thread and where the signal has its default action; a solve's
+    stop rule installs its own meanwhile."""
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
+    taken = [s for s in (signal.SIGTERM, signal.SIGHUP) if signal.getsignal(s) is signal.SIG_DFL]
 
     def interrupt(signum, frame):
+        if signum == signal.SIGHUP:
+            _silence_lost_terminal()
         raise Interrupted(signum)
 
-    signal.signal(signal.SIGTERM, interrupt)
+    for s in taken:
+        signal.signal(s, interrupt)
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        for s in taken:
+            signal.signal(s, signal.SIG_DFL)

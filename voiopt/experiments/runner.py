@@ -235,9 +235,11 @@ def is_done(path: str | os.PathLike) -> bool:
 
 
 def _ignore_sigint() -> None:
-    """Pool workers leave Ctrl-C to the solver's own stop rule (and to the parent); a SIGTERM
-    between runs ends them (the command's own handler, voiopt.stop.sigterm_raises, is not theirs)."""
+    """Pool workers leave Ctrl-C to the solver's own stop rule (and to the parent), and a hang-up
+    of the terminal to the parent, which stops them as it stops a sweep; a SIGTERM between runs
+    ends them (the command's own handler, voiopt.stop.sigterm_raises, is not theirs)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
