@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -438,7 +440,21 @@ def test_a_progress_line_in_a_log_keeps_its_counts(capsys, tmp_path):
     """Off a terminal the bar's last line is written once, and at 80 columns it was cut to
     '1000000/1…' (a review); it is now as wide as it needs."""
     code, _, err = run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "123456", "-o", str(tmp_path / "q.json"))
-    assert code == 0 and "123456/123456" in err and "greedy plan" in err
+    assert code == 0 and "123456/123456" in err and "greedy" in err
+
+
+def test_a_progress_line_on_an_80_column_terminal_keeps_its_counts_and_clock(tmp_path):
+    """On a terminal 80 columns wide Q-learning's line was cut to 'qlearning ━━━ 1000000/1…':
+    the counts, the fields and the clock are never cut now; the bar gives way."""
+    env = {**os.environ, "COLUMNS": "80", "FORCE_COLOR": "1", "TTY_COMPATIBLE": "1"}  # rich: a terminal
+    proc = subprocess.run([sys.executable, "-m", "voiopt", "solve", CASE, "--method", "qlearning", "--episodes", "1e9",
+                           "--time-limit", "1", "-o", str(tmp_path / "q.json")], capture_output=True, text=True,
+                          env=env, timeout=120)
+    frames = [re.sub(r"\x1b\[[0-9;?]*[a-zA-Z]", "", f) for f in re.split(r"[\r\n]", proc.stderr)]
+    lines = [f for f in frames if "eps " in f]
+    assert proc.returncode == 0 and lines, proc.stderr
+    assert all(len(line) <= 80 and re.search(r" \d+/1000000000 eps [\d.]+ greedy \S+ states \d+ \d:\d\d:\d\d$", line)
+               for line in lines), lines
 
 
 def test_plot_draws_a_plan_file_as_evaluate_reads_it(capsys, tmp_path):

@@ -4,6 +4,13 @@ from __future__ import annotations
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Column
+
+
+def text_column(template: str) -> TextColumn:
+    """A column of text that is never cut: where a line is too long, the bar gives way first
+    (on an 80-column terminal Q-learning's line was cut to 'qlearning ━━━ 1000000/1…')."""
+    return TextColumn(template, table_column=Column(no_wrap=True))
 
 
 def progress_bar(enabled: bool, *extra_columns) -> Progress:
@@ -14,11 +21,11 @@ def progress_bar(enabled: bool, *extra_columns) -> Progress:
     if not console.is_terminal:
         console = Console(stderr=True, width=200)
     return Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
+        text_column("[bold]{task.description}"),
+        BarColumn(table_column=Column(min_width=3)),
+        MofNCompleteColumn(table_column=Column(no_wrap=True)),
         *extra_columns,
-        TimeElapsedColumn(),
+        TimeElapsedColumn(table_column=Column(no_wrap=True)),
         disable=not enabled,
         transient=False,
         console=console,

@@ -7,7 +7,6 @@ import math
 import time
 
 import numpy as np
-from rich.progress import TextColumn
 
 from voiopt import joint
 from voiopt import lattice as lattice_mod
@@ -23,7 +22,7 @@ from voiopt.models import fleet_mdp
 from voiopt.models import mdp as mdp_mod
 from voiopt.objectives import AOI_DEFAULT, DEFAULT, check_objective
 from voiopt.plan import Plan
-from voiopt.progress import progress_bar
+from voiopt.progress import progress_bar, text_column
 from voiopt.result import Result
 from voiopt.simulate import simulate_indices
 from voiopt.solvers import base
@@ -148,8 +147,8 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         # weighs its joint actions: each step of a fleet scans them (4 robots: 50,625, 300 us a step)
         work = T * max(1, model.max_actions // ACTIONS_PER_STEP)
         done, chunk = 0, max(FIRST_STEPS // work, 1)
-        columns = (TextColumn("eps {task.fields[eps]:.3f}"), TextColumn("greedy plan {task.fields[greedy]}"),
-                   TextColumn("states {task.fields[states]}"))
+        columns = (text_column("eps {task.fields[eps]:.3f}"), text_column("greedy {task.fields[greedy]}"),
+                   text_column("states {task.fields[states]}"))
         with progress_bar(progress, *columns) as bar:
             task = bar.add_task(method, total=episodes, eps=1.0, greedy="-", states=0)
             while done < episodes:
