@@ -5,12 +5,20 @@ from __future__ import annotations
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Column
+from rich.text import Text
 
 
 def text_column(template: str) -> TextColumn:
     """A column of text that is never cut: where a line is too long, the bar gives way first
     (on an 80-column terminal Q-learning's line was cut to 'qlearning ━━━ 1000000/1…')."""
     return TextColumn(template, table_column=Column(no_wrap=True))
+
+
+class _Counts(MofNCompleteColumn):
+    """done/total; nothing where the total is unknown (dp's subsets showed '0/?' throughout)."""
+
+    def render(self, task):
+        return Text("") if task.total is None else super().render(task)
 
 
 def progress_bar(enabled: bool, *extra_columns) -> Progress:
@@ -22,8 +30,8 @@ def progress_bar(enabled: bool, *extra_columns) -> Progress:
         console = Console(stderr=True, width=200)
     return Progress(
         text_column("[bold]{task.description}"),
-        BarColumn(table_column=Column(min_width=3)),
-        MofNCompleteColumn(table_column=Column(no_wrap=True)),
+        BarColumn(table_column=Column(min_width=1)),
+        _Counts(table_column=Column(no_wrap=True)),
         *extra_columns,
         TimeElapsedColumn(table_column=Column(no_wrap=True)),
         disable=not enabled,
