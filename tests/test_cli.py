@@ -486,6 +486,16 @@ def test_a_warm_start_of_another_instance_names_the_option_and_the_file(capsys, 
         assert code == 2 and one_line_error(err).startswith(f"voiopt: error: --warm-start: {path}: {why}"), err
 
 
+def test_a_file_is_named_once_and_as_given(capsys, monkeypatch, tmp_path):
+    """'--warm-start ./missing.json' read '--warm-start: ./missing.json: missing.json: no such file':
+    the reader named the file as a normalised path, so the option's prefix did not recognise it."""
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, "solve", CASE, "--method", "greedy", "--warm-start", "./missing.json", "--quiet")
+    assert code == 2 and one_line_error(err) == "voiopt: error: --warm-start: ./missing.json: no such file"
+    code, _, err = run(capsys, "solve", "./missing.json", "--quiet")
+    assert code == 2 and one_line_error(err) == "voiopt: error: ./missing.json: no such file"
+
+
 def test_a_seed_beyond_the_random_streams_64_bits_is_refused(capsys):
     """Q-learning's stream keeps 64 bits of the seed: 2**64 would silently rerun seed 0."""
     code, _, err = run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "10", "--seed", str(2**64))

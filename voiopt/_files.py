@@ -143,23 +143,23 @@ def loads_json(text: str, error: type[Exception] = InstanceError, where: str = "
 def read_json(path: str | os.PathLike, error: type[Exception] = InstanceError) -> Any:
     """Read a JSON file; a syntax error names the file, line and column. At most
     MAX_JSON_BYTES are read, so a huge file or a device such as /dev/zero is refused."""
-    p = Path(path)
+    p, name = Path(path), os.fsdecode(path)  # messages show the path as given ("./a.json", not "a.json")
     try:
         with open(p, "rb") as f:
             data = f.read(MAX_JSON_BYTES + 1)
     except FileNotFoundError:
-        raise error(f"{p}: no such file") from None
+        raise error(f"{name}: no such file") from None
     except IsADirectoryError:
-        raise error(f"{p}: is a directory, not a JSON file") from None
+        raise error(f"{name}: is a directory, not a JSON file") from None
     except OSError as e:
-        raise error(f"{p}: cannot read: {e.strerror or e}") from None
+        raise error(f"{name}: cannot read: {e.strerror or e}") from None
     if len(data) > MAX_JSON_BYTES:
-        raise error(f"{p}: invalid JSON: larger than {MAX_JSON_BYTES} bytes (the limit of a voiopt JSON file)")
+        raise error(f"{name}: invalid JSON: larger than {MAX_JSON_BYTES} bytes (the limit of a voiopt JSON file)")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as e:
-        raise error(f"{p}: cannot read: not UTF-8 text (byte {e.start})") from None
-    return loads_json(text, error, str(p))
+        raise error(f"{name}: cannot read: not UTF-8 text (byte {e.start})") from None
+    return loads_json(text, error, name)
 
 
 @contextmanager

@@ -57,20 +57,17 @@ def _count(text: str) -> int:
     return int(value)
 
 
-def _seed(text: str) -> int:
-    """A seed: an integer >= 0 (1e3 is accepted)."""
-    value = _count(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
-    return value
+def _at_least(low: int):
+    """An integer option of at least ``low`` (1e6 is accepted): a seed (0), a count (1)."""
+    def parse(text: str) -> int:
+        value = _count(text)
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {text!r}")
+        return value
+    return parse
 
 
-def _positive(text: str) -> int:
-    """A count of at least one (1e6 is accepted)."""
-    value = _count(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
-    return value
+_seed, _positive = _at_least(0), _at_least(1)
 
 
 def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
@@ -196,12 +193,14 @@ def _solve_options(args, inst) -> dict:
         v = getattr(args, key, None)
         if v is not None:
             opts[key] = v
-    if args.warm_start is not None:
-        try:  # no plan of this instance, or one that breaks a rule of it: say which option and file
+    if args.warm_start is not None:  # no plan of this instance, or one that breaks a rule of it: say which option and file
+        where = ""  # load_plan's own messages name the file (as a path, "./p.json" as "p.json"); evaluate's do not
+        try:
             opts["warm_start"] = voiopt.load_plan(args.warm_start, inst.name)
+            where = f"{args.warm_start}: "
             voiopt.evaluate(inst, opts["warm_start"])
-        except PlanError as e:  # load_plan's own messages begin with the file
-            raise PlanError(f"--warm-start: {'' if str(e).startswith(args.warm_start) else args.warm_start + ': '}{e}") from None
+        except PlanError as e:
+            raise PlanError(f"--warm-start: {where}{e}") from None
     if not args.quiet and not args.json:
         opts["progress"] = True
     if args.verbose:
