@@ -89,6 +89,11 @@ def _xy(p: tuple[float, float]) -> str:
     return f"[{p[0]:g}, {p[1]:g}]"
 
 
+def in_area(x: float, y: float, width: float, height: float) -> bool:
+    """Whether (x, y) lies in the area [0, width] x [0, height], to LATTICE_TOL."""
+    return -LATTICE_TOL <= x <= width + LATTICE_TOL and -LATTICE_TOL <= y <= height + LATTICE_TOL
+
+
 def lattice_point(ck: Checker, d: dict, key: str, path: str, width, height, step, area_ok: bool,
                    what: str | None = None) -> tuple[float, float] | None:
     """A lattice point inside the area (snapped to the lattice), or None and a failure."""
@@ -97,7 +102,7 @@ def lattice_point(ck: Checker, d: dict, key: str, path: str, width, height, step
     if point is None or not area_ok:
         return None
     x, y = point
-    if not (-LATTICE_TOL <= x <= width + LATTICE_TOL and -LATTICE_TOL <= y <= height + LATTICE_TOL):
+    if not in_area(x, y, width, height):
         return ck.fail(where, f"must lie in the area [0, {width:g}] x [0, {height:g}], got {show(list(point))}")
     if not (on_lattice(x, step) and on_lattice(y, step)):
         return ck.fail(where, f"must be a lattice point (multiples of step {step:g}), got {show(list(point))}")

@@ -12,6 +12,7 @@ import numpy as np
 
 from voiopt import lattice as lattice_mod
 from voiopt import physics
+from voiopt._places import in_area
 from voiopt.errors import PlanError
 from voiopt.instance import Instance
 from voiopt.objectives import metrics_of
@@ -86,8 +87,7 @@ def _indices_slot_by_slot(instance: Instance, lat, positions) -> np.ndarray:
     for t, (x, y) in enumerate(positions):
         p = lat.index(x, y)
         if p is None:
-            inside = -1e-9 <= x <= instance.width + 1e-9 and -1e-9 <= y <= instance.height + 1e-9
-            why = "is not a lattice point" if inside else "is outside the area"
+            why = "is not a lattice point" if in_area(x, y, instance.width, instance.height) else "is outside the area"
             raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] {why} (step {instance.step:g}, area {instance.width:g} x {instance.height:g})")
         if lat.blocked[p]:
             raise PlanError(f"positions[{t}]: [{x:g}, {y:g}] is a blocked point (blocked points may never be stood on)")
