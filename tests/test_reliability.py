@@ -138,6 +138,39 @@ def test_a_dead_worker_ends_the_sweep_with_one_line(tmp_path, nets):
     assert proc.returncode == 1 and "a worker process died" in one_line(stderr)
 
 
+def test_a_sweep_killed_outright_takes_its_workers_with_it(tmp_path, nets):
+    """SIGKILL (the OOM killer) of a sweep left its pool workers running their solves, then the
+    runs queued to them, orphaned: hours at --episodes 1e9 (2026-12-03)."""
+    proc = voiopt_cmd("gap-report", str(nets), "--methods", "qlearning", "--episodes", "1e9", "--seeds", "3",
+                      "--workers", "2", "-o", str(tmp_path / "report"), "--quiet")
+    wait_until_watching(proc)
+    end = time.monotonic() + 60
+    workers: list[int] = []
+    while len(workers) < 2 and time.monotonic() < end:
+        workers = [int(c) for c in Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()]
+        time.sleep(0.2)
+    time.sleep(2.0)  # solving
+    proc.kill()
+    proc.wait(timeout=30)  # not communicate(): orphaned workers would hold its pipes open
+
+    def running(pid: int) -> bool:
+        try:
+            return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+        except FileNotFoundError:
+            return False
+
+    end = time.monotonic() + 10
+    alive = workers
+    while alive and time.monotonic() < end:
+        alive = [w for w in workers if running(w)]
+        time.sleep(0.1)
+    for w in alive:  # the test leaves nothing running, even when it fails
+        os.kill(w, signal.SIGKILL)
+    proc.stdout.close()
+    proc.stderr.close()
+    assert len(workers) == 2 and not alive, (workers, alive)
+
+
 def test_a_stored_interrupted_run_is_not_done(tmp_path):
     r = voiopt.solve(voiopt.case_study(), method="greedy")
     r.status = "interrupted"

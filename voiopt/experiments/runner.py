@@ -43,7 +43,7 @@ from voiopt.progress import progress_bar
 from voiopt.result import Result, load_result
 from voiopt.solvers import METHODS, RANDOMISED, check_robots, solver_function
 from voiopt.solvers.base import check_limits
-from voiopt.stop import INTERRUPTED, Interrupted, last_signal, signals_seen, watch
+from voiopt.stop import INTERRUPTED, Interrupted, last_signal, pool_worker, signals_seen, watch
 
 
 @dataclass(frozen=True)
@@ -234,15 +234,6 @@ def is_done(path: str | os.PathLike) -> bool:
         return False
 
 
-def _ignore_sigint() -> None:
-    """Pool workers leave Ctrl-C to the solver's own stop rule (and to the parent), and a hang-up
-    of the terminal to the parent, which stops them as it stops a sweep; a SIGTERM between runs
-    ends them (the command's own handler, voiopt.stop.sigterm_raises, is not theirs)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGHUP, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-
-
 SCHEDULER_WAIT_S = 15.0  # the Dask client's own connect timeout (10 s) does not cover its handshake
 
 
@@ -284,7 +275,7 @@ def make_executor(workers: int, dask_scheduler: str | None):
     """A process pool, or a Dask cluster's executor (an existing one, or 'local')."""
     check_workers(workers, dask_scheduler)
     if dask_scheduler is None:
-        with ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint) as ex:
+        with ProcessPoolExecutor(max_workers=workers, initializer=pool_worker, initargs=(os.getpid(),)) as ex:
             yield ex
         return
     try:
