@@ -383,6 +383,19 @@ def test_plot_finds_the_instance_beside_the_result_or_in_the_folder_above(capsys
         assert ("but the result itself" in line) == (path.name == "dock.json")
 
 
+def test_plot_finds_the_instance_in_an_instances_folder_beside_the_result(capsys, tmp_path, monkeypatch):
+    """A result saved in a clone's folder, plotted from elsewhere: its instance is in instances/
+    beside it (a newcomer probe, 2026-12-03: 'voiopt plot CLONE/fleet-dp.json' was refused)."""
+    dock = voiopt.load(ROOT / "instances" / "dock.json")
+    (tmp_path / "clone" / "instances").mkdir(parents=True)
+    voiopt.save(dock, tmp_path / "clone" / "instances" / "dock.json")
+    voiopt.solve(dock, method="greedy").save(tmp_path / "clone" / "dock-greedy.json")
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    code, out, err = run(capsys, "plot", str(tmp_path / "clone" / "dock-greedy.json"), "-o", "p.png")
+    assert code == 0 and (tmp_path / "elsewhere" / "p.png").stat().st_size > 1000, err
+
+
 def test_plot_refuses_a_result_that_its_instance_does_not_give(capsys, tmp_path, monkeypatch):
     """A result solved on an edited copy of the case study (the same name) was drawn on the
     built-in case study, with that network's value and the result's "optimal" in the title; a

@@ -441,7 +441,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = _command(sub, "plot", "draw the trajectory of a result or a plan", cmd_plot)
     s.add_argument("result", metavar="RESULT", help="a result JSON (voiopt solve -o), or a plan JSON (with --instance, "
                                                     "unless it names its instance)")
-    s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: NAME.json beside the result, in the folder above it, or in ./instances")
+    s.add_argument("--instance", default=None, metavar="INSTANCE", help="default: NAME.json beside the result, in instances/ beside it, in the folder above it, or in ./instances")
     s.add_argument("-o", "--output", required=True, metavar="PNG", help="the image to write")
 
     s = _command(sub, "methods", "list the solution methods", lambda a: (out.print("\n".join(voiopt.METHODS), markup=False), 0)[1])

@@ -296,8 +296,8 @@ def case_study_figures(inst: Instance, results: dict[str, Result], out: Path) ->
 def instance_for(name: str | None, instance_path: str | None, file_path: str | None = None,
                  what: str = "result") -> tuple[Instance, str]:
     """The instance named ``name`` (a result's or a plan's ``instance``), and where it was
-    found: given, or the first NAME.json beside the file, in the folder above it, or in
-    ./instances, or the built-in case study."""
+    found: given, or the first NAME.json beside the file, in an ``instances`` folder beside it,
+    in the folder above it, or in ./instances, or the built-in case study."""
     if instance_path:
         inst, where = instance_mod.load(instance_path), str(instance_path)
     elif name is None:
@@ -310,10 +310,12 @@ def instance_for(name: str | None, instance_path: str | None, file_path: str | N
 
 
 def _named_instance(name: str, file_path: str | None, what: str) -> tuple[Instance, str]:
-    """``instance_for`` without --instance: NAME.json beside the file, in the folder above it, in
-    ./instances, or the built-in case study."""
+    """``instance_for`` without --instance: NAME.json beside the file, in an ``instances`` folder
+    beside it (a result saved in a clone's folder, its instance in instances/), in the folder
+    above it, in ./instances, or the built-in case study."""
     file = f"{name}.json"
-    folders = [] if file_path is None else [Path(file_path).parent, Path(file_path).parent.parent]
+    here = None if file_path is None else Path(file_path).parent
+    folders = [] if here is None else [here, here / "instances", here.parent]
     found = next((f / file for f in [*folders, Path("instances")]
                   if (f / file).is_file() and (file_path is None or not (f / file).samefile(file_path))), None)
     if found is not None:
@@ -322,4 +324,5 @@ def _named_instance(name: str, file_path: str | None, what: str) -> tuple[Instan
         return case_study(), "the built-in case study"
     itself = file_path is not None and any((f / file).is_file() for f in folders)  # the file's own name
     raise OptionError(f"--instance: give the instance of {what} {name!r} (no {file} beside the {what}"
-                      f"{f' but the {what} itself' if itself else ''}, in the folder above it or in ./instances)")
+                      f"{f' but the {what} itself' if itself else ''}, in instances/ beside it, in the folder above it "
+                      "or in ./instances)")
