@@ -95,3 +95,14 @@ def test_the_summary_of_a_proven_optimum_shows_no_rounding_noise_as_its_gap(case
     r = voiopt.solve(case_study, method="dp", objective="mean-min-voi")
     assert r.status == "optimal" and r.gap is not None and r.gap < objectives.GAP_NOISE
     assert "gap 0 %" in r.summary()
+
+
+def test_the_summary_shows_a_long_start_up_beside_the_runtime():
+    """The first fleet dp solve after installing printed '(2.45 s)' and took 19 s: numba's
+    compilation, in solver['startup_s'], is outside runtime_s (a newcomer probe)."""
+    r = voiopt.solve(voiopt.case_study(), method="greedy")
+    assert r.summary().endswith(f"({r.runtime_s:.2f} s)")
+    r.solver["startup_s"] = 13.6
+    assert r.summary().endswith(f"({r.runtime_s:.2f} s; start-up 13.6 s)")
+    r.solver["startup_s"] = 0.3  # numba's cache loaded: not worth a word
+    assert r.summary().endswith(f"({r.runtime_s:.2f} s)")

@@ -123,9 +123,11 @@ class Result:
         val = "-" if self.value is None else f"{self.value:.6g}"
         bnd = "-" if self.bound is None else f"{self.bound:.6g}"
         gap = objectives.show_gap(self.gap, 4)
+        startup = self.solver.get("startup_s") if isinstance(self.solver, dict) else None
+        compiled = f"; start-up {startup:.1f} s" if isinstance(startup, (int, float)) and startup >= 1 else ""
         return (
             f"{self.instance}  {self.method}  {self.objective}: {self.status}  "
-            f"value {val}  bound {bnd}  gap {gap}  ({self.runtime_s:.2f} s)"
+            f"value {val}  bound {bnd}  gap {gap}  ({self.runtime_s:.2f} s{compiled})"
         )
 
 
