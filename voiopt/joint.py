@@ -153,6 +153,7 @@ def _alive_slot(here, alive_next, c_lo, c_hi, within, nxt_cfg, moved, counted, b
 
 
 CHUNK = 4096  # joint points per kernel call: the stop rule is checked between calls
+CHUNK_WORK = 2 * 10**7  # at most about this many (moves made x joint moves) per call (about 0.05 s)
 
 
 def _alive_backwards(last, within, nxt_cfg, moved, counted, budgets, strides, mv_idx, horizon, stop=None,
@@ -166,12 +167,14 @@ def _alive_backwards(last, within, nxt_cfg, moved, counted, budgets, strides, mv
     the next one, every earlier slot equals it too, and is not stored: three robots with budgets
     at T = 589 once filled 3.2 GB with copies of one slot."""
     rows = [last]  # slots T-1, T-2, ... down to the first stored one
-    for _ in range(horizon - 1):
-        here = np.zeros_like(last)
+    chunk = max(1, min(CHUNK, CHUNK_WORK // (last.shape[1] * nxt_cfg.shape[1])))  # two robots with budgets of 80 on
+    for _ in range(horizon - 1):  # a factory floor: 4096 joint points took seconds, past any stop
+        halt_if_asked(stop, held + (len(rows) + 1) * last.nbytes)
+        here = np.zeros(last.shape, last.dtype)  # not zeros_like, which writes every byte
         same = True
-        for lo in range(0, here.shape[0], CHUNK):
+        for lo in range(0, here.shape[0], chunk):
             halt_if_asked(stop, held + (len(rows) + 1) * last.nbytes)
-            same &= _alive_slot(here, rows[-1], lo, min(here.shape[0], lo + CHUNK), within, nxt_cfg, moved, counted,
+            same &= _alive_slot(here, rows[-1], lo, min(here.shape[0], lo + chunk), within, nxt_cfg, moved, counted,
                                 budgets, strides, mv_idx)
         if same:
             break
@@ -222,7 +225,9 @@ def table(neighbors: np.ndarray, ends, max_moves, horizon: int, stop=None) -> Ta
     for k, end in enumerate(ends):
         if end >= 0:
             at_end &= configs[:, k] == end
-    last = (at_end[:, None] & within[None, :]).astype(np.uint8)
+    halt_if_asked(stop)
+    last = np.zeros((len(configs), M), np.uint8)  # pages the OS zeroes when first touched: two robots on a
+    last[at_end] = within  # factory floor have 1.3 GB of it, and building it whole took 1.6 s, unchecked
     strides = np.cumprod([1, *radix[::-1]])[:-1][::-1].astype(np.int64)
     held = float(configs.nbytes + nxt_cfg.nbytes + moved.nbytes)
     alive, first = _alive_backwards(last, within, nxt_cfg, moved, counted, bud, strides, mv_idx, T, stop, held)
