@@ -280,6 +280,20 @@ def test_time_limits_hold_at_many_sensors(tmp_path):
         assert r.value == voiopt.evaluate(voiopt.load(inst), r.plan)[r.objective]
 
 
+def test_two_robots_q_learning_on_a_factory_floor_stops_on_time(tmp_path):
+    """Two robots with budgets of 80 moves on a 21 x 21 floor: the table of legal joint states
+    has 1.3 GB a slot. Building its last slot took 1.6 s and each block of it seconds, between
+    two looks at the stop rule: a 1 s limit returned after 8 s, Ctrl-C after 7 (an outside
+    probe, 2026-12-03)."""
+    inst = tmp_path / "factory2.json"
+    voiopt.save(voiopt.generate_set(1, seed=0, preset="factory", robots=2)[0], inst)
+    out = tmp_path / "r.json"
+    done = run("solve", str(inst), "--method", "qlearning", "--time-limit", "1", "-o", str(out), "--quiet", timeout=120)
+    assert done.returncode == 0, done.stderr
+    r = voiopt.load_result(out)
+    assert r.status == "time_limit" and r.runtime_s <= 1 * 1.1 + 1, r.runtime_s
+
+
 def test_greedy_stops_inside_a_step_with_thousands_of_sensors_in_range():
     """At 10,000 sensors (about 2,800 in range of a point) one greedy step values 28 million
     (sensor, upload) pairs, 30 s: a 2 s limit ended after 17.7 s. The step now checks the stop
@@ -311,6 +325,22 @@ def test_a_memory_limit_stop_is_reported_as_such(tmp_path):
     assert all("memory limit of 0.02 GB" in r.solver["stopped"] for r in results)
     summary = (out / "summary.md").read_text()
     assert "| 2 memory_limit |" in summary and "memory limit of 0.02 GB reached" in summary
+
+
+def test_milp_stops_at_its_memory_limit_while_highs_runs(tmp_path):
+    """HiGHS's memory is opaque: milp counted only its estimate made before the solve, and a
+    solve under --memory-limit 0.05 grew 300 MB and ran to its time limit (an outside probe,
+    2026-12-03). The process's resident growth is watched now. A fresh process: in this one,
+    freed pages would be reused unseen."""
+    inst = tmp_path / "n12.json"
+    voiopt.save(voiopt.generate(12, 30, seed=5), inst)
+    out = tmp_path / "r.json"
+    done = run("solve", str(inst), "--method", "milp", "--memory-limit", "0.05", "--time-limit", "60", "-o", str(out),
+               "--quiet", timeout=120)
+    assert done.returncode == 0, done.stderr
+    r = voiopt.load_result(out)
+    assert r.status == "memory_limit" and r.solver["stopped"] == "memory limit of 0.05 GB reached", r.solver
+    assert r.runtime_s < 30 and r.value == voiopt.evaluate(voiopt.load(inst), r.plan)[r.objective]
 
 
 # -------------------------------------------------------------------------------- output

@@ -82,6 +82,16 @@ class Stop:
         return "not stopped"
 
 
+def resident_bytes() -> float | None:
+    """This process's resident memory now (Linux: /proc/self/statm), or None where unknown. For
+    work whose memory voiopt cannot count itself (HiGHS's), its growth stands in for it."""
+    try:
+        with open("/proc/self/statm", "rb") as f:
+            return float(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 class Stopped(Exception):
     """Work that cannot hand over a partial result (a table, a model) was cut short: the stop
     rule said stop. Its caller falls back on a plan it can make at once."""

@@ -47,7 +47,7 @@ from voiopt.solvers.base import (
     points_in_range,
     require_memory,
 )
-from voiopt.stop import TIME_LIMIT, Stop, Stopped, watch
+from voiopt.stop import TIME_LIMIT, Stop, Stopped, resident_bytes, watch
 
 METHOD = "milp"
 PATCH_RTOL = 5e-7  # an "optimal" must be met to this relative gap (half of Result's 1e-6)
@@ -146,6 +146,7 @@ class _Run:
         self.gap = 0.0 if gap is None else float(gap)
         self.threads = threads
         self.incumbent = Incumbent(instance, objective)
+        self.resident0 = resident_bytes()  # HiGHS's memory counts as the process's growth from here
         self.details: dict[str, Any] = {
             "options": {"mip_rel_gap": self.gap, "threads": threads, **TOLERANCES},
             "nodes": 0, "solves": 0, "build_s": 0.0, "solve_s": 0.0,
@@ -225,7 +226,7 @@ class _Run:
         asked = None
         while worker.is_alive():
             worker.join(WATCH_S)
-            if asked is None and self.stop.check() is not None:
+            if asked is None and self.stop.check(self.memory_used()) is not None:
                 asked = time.perf_counter()
             if asked is not None and worker.is_alive() and time.perf_counter() - asked > HIGHS_GRACE_S:
                 self.details["note"] = "HiGHS did not answer the stop request in time and was left behind"
@@ -236,6 +237,13 @@ class _Run:
         info = h.getInfo()
         self.details["nodes"] += int(max(info.mip_node_count, 0))
         return h.getModelStatus(), info
+
+    def memory_used(self) -> float:
+        """What the memory limit counts while HiGHS runs: the process's resident memory grown
+        since the solve began (HiGHS's own allocations are opaque; the estimate made before the
+        solve, 2000 bytes a column, fell 5x short on a factory floor, 1.4 GB resident)."""
+        now = resident_bytes()
+        return 0.0 if now is None or self.resident0 is None else max(now - self.resident0, 0.0)
 
     @staticmethod
     def has_solution(h, info) -> bool:
