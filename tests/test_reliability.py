@@ -209,9 +209,10 @@ def test_a_solve_whose_terminal_hangs_up_keeps_its_best_plan(tmp_path, warm_qlea
             os._exit(127)
     seen = b""
     end = time.monotonic() + 60
-    while b"greedy plan" not in seen and time.monotonic() < end:  # the progress bar: solving
+    while b" states " not in seen and time.monotonic() < end:  # the progress bar: solving
         if select.select([fd], [], [], 0.2)[0]:
             seen += os.read(fd, 65536)
+    assert b" states " in seen, seen[-300:]  # solving, not still starting
     os.close(fd)  # the terminal hangs up
     _, status = os.waitpid(pid, 0)
     assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 129, (status, seen[-300:])
