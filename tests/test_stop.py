@@ -101,6 +101,20 @@ def test_a_second_signal_raises_at_once():
     assert signal.getsignal(signal.SIGINT) is before
 
 
+def test_after_a_limit_stopped_the_work_a_second_signal_still_raises_at_once():
+    """Stopped by its time limit, greedy valued its plan of 10^6 slots for 2 s, and every Ctrl-C
+    meanwhile was swallowed: the stop had a reason already, so none counted as a first (an
+    outside probe, 2026-12-03). The first is noted; the second raises."""
+    with pytest.raises(Interrupted), watch(time_limit=1e-9) as stop:
+        time.sleep(0.001)
+        assert stop.check() == TIME_LIMIT
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+        assert stop.reason == TIME_LIMIT  # the result still says what stopped the work
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+
+
 def test_in_a_loop_of_solves_one_signal_stops_one_solve_and_is_remembered():
     """The library's rule (docs/reliability.md): the stopped solve returns, the next one starts
     afresh, and last_signal() tells a script's loop that it was asked to stop."""

@@ -30,12 +30,14 @@ class Stop:
         self.labels = 0
         self.reason: str | None = None
         self.signal: int | None = None  # the signal that asked to stop, if one did
+        self.signalled = False  # a signal came, also after a limit had stopped the work
 
     @property
     def requested(self) -> bool:
         return self.reason is not None
 
     def request(self, reason: str = INTERRUPTED, signum: int | None = None) -> None:
+        self.signalled = self.signalled or signum is not None
         if self.reason is None:
             self.reason = reason
             self.signal = signum
@@ -165,8 +167,8 @@ def _handler(signum, frame) -> None:
     _last_signal.append(signum)
     if signum == signal.SIGHUP:
         _silence_lost_terminal()
-    if any(s.reason == INTERRUPTED for s in _active):  # the second request: stop at once
-        _restore()
+    if any(s.signalled or s.reason == INTERRUPTED for s in _active):  # the second request: stop at once (also where a limit
+        _restore()  # had stopped the work first: a plan of 10^6 slots valued for 2 s swallowed every Ctrl-C)
         raise Interrupted(signum)
     for s in _active:
         s.request(INTERRUPTED, signum)
