@@ -105,7 +105,8 @@ def test_a_signal_stops_the_whole_sweep_keeps_what_finished_and_stores_no_interr
         tmp_path, nets, sig, code, workers):
     out = tmp_path / "report"
     proc = voiopt_cmd("gap-report", str(nets), "--methods", "greedy,qlearning", "--episodes", "1e9",
-                      "--seeds", "3" if workers == "2" else "1", "--workers", workers, "-o", str(out), "--quiet")
+                      "--seeds", "3" if workers == "2" else "1", "--workers", workers, "-o", str(out), "--quiet",
+                      preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL))  # even if pytest runs under nohup
     wait_until_watching(proc)
     end = time.monotonic() + 60
     while not list(out.glob("results/*greedy*.json")) and time.monotonic() < end:
@@ -203,6 +204,7 @@ def test_a_solve_whose_terminal_hangs_up_keeps_its_best_plan(tmp_path, warm_qlea
     if pid == 0:
         try:
             os.chdir(ROOT)
+            signal.signal(signal.SIGHUP, signal.SIG_DFL)  # as a login shell's, even if pytest runs under nohup
             os.execv(sys.executable, [sys.executable, "-m", "voiopt", "solve", CASE, "--method", "qlearning",
                                       "--episodes", "1e9", "-o", str(out)])
         finally:

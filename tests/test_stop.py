@@ -146,3 +146,23 @@ def test_a_signal_that_raises_during_a_watchs_set_up_leaves_no_watch_open(monkey
         with watch():
             pass
     assert list(stop_mod._active) == [] and signal.getsignal(signal.SIGINT) is before
+
+
+def test_outside_a_solve_a_hang_up_raises_as_sigterm_does():
+    """While a command writes its files (stop.sigterm_raises), SIGHUP raises, so a temporary file
+    is removed and the command ends with 129, not killed half-way; an ignored one stays ignored."""
+    from voiopt.stop import sigterm_raises
+
+    before = signal.signal(signal.SIGHUP, signal.SIG_DFL)  # as in a terminal, even if pytest runs under nohup
+    try:
+        with pytest.raises(Interrupted) as e, sigterm_raises():
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(0.01)
+        assert e.value.exit_code == 129 and signal.getsignal(signal.SIGHUP) is signal.SIG_DFL
+        signal.signal(signal.SIGHUP, signal.SIG_IGN)
+        with sigterm_raises():
+            os.kill(os.getpid(), signal.SIGHUP)
+            time.sleep(0.01)
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, before)

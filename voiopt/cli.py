@@ -194,7 +194,7 @@ def _solve_options(args, inst) -> dict:
         if v is not None:
             opts[key] = v
     if args.warm_start is not None:  # no plan of this instance, or one that breaks a rule of it: say which option and file
-        where = ""  # load_plan's own messages name the file (as a path, "./p.json" as "p.json"); evaluate's do not
+        where = ""  # load_plan's own messages name the file; evaluate's do not
         try:
             opts["warm_start"] = voiopt.load_plan(args.warm_start, inst.name)
             where = f"{args.warm_start}: "

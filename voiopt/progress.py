@@ -9,8 +9,9 @@ from rich.text import Text
 
 
 def text_column(template: str) -> TextColumn:
-    """A column of text that is never cut: where a line is too long, the bar gives way first
-    (on an 80-column terminal Q-learning's line was cut to 'qlearning ━━━ 1000000/1…')."""
+    """A column of text that does not wrap: where a line is too long, the bar gives way first,
+    down to one column (on an 80-column terminal Q-learning's line was cut to 'qlearning ━━━
+    1000000/1…'); only a line wider than the terminal without its bar is still cut."""
     return TextColumn(template, table_column=Column(no_wrap=True))
 
 

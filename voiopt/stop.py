@@ -4,7 +4,6 @@ says why, returns its best plan and proven bound with that reason as the status.
 
 from __future__ import annotations
 
-import ctypes
 import os
 import signal
 import stat
@@ -236,29 +235,43 @@ def _forget_after_fork() -> None:
 
 os.register_at_fork(after_in_child=_forget_after_fork)
 
-PR_SET_PDEATHSIG = 1  # Linux's prctl option: a signal for this process when its parent dies
+ORPHAN_POLL_S = 0.2  # how often a pool worker looks whether its sweep is still there
 
 
 def pool_worker(parent: int) -> None:
     """The signals of a sweep's pool worker (``parent``: the sweep's process id). It leaves
     Ctrl-C to the solver's own stop rule (and to the parent), and a hang-up of the terminal to
     the parent, which stops it as it stops a sweep; a SIGTERM between runs ends it (the
-    command's own handler, ``sigterm_raises``, is not its). On Linux it is killed when the
-    parent dies: a sweep killed outright (SIGKILL, the OOM killer) left its workers running
-    their solves to the end, orphaned, and then the runs queued to them (hours at --episodes
-    1e9; found 2026-12-03). SIGKILL, not SIGTERM: a solve's stop rule catches SIGTERM, and the
+    command's own handler, ``sigterm_raises``, is not its). It kills itself when the sweep is
+    gone: a sweep killed outright (SIGKILL, the OOM killer) left its workers running their
+    solves to the end, orphaned, and then the runs queued to them (hours at --episodes 1e9;
+    found 2026-12-03). Not by a parent-death signal, which reaches only a sweep's own children
+    (a forkserver's, Python 3.14's default, are not): a thread looks every ORPHAN_POLL_S whether
+    the worker's parent has changed (its parent died: the sweep, or the forkserver, which ends
+    with the sweep) or the sweep is gone. SIGKILL: a solve's stop rule catches SIGTERM, and the
     worker went on to its next run. Nothing is lost: no one is left to store its result."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if os.getppid() != parent:  # a child of another process (a forkserver's): its death is not the sweep's
-        return
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL))
-    except (OSError, AttributeError):  # not Linux
-        return
-    if os.getppid() != parent:  # the parent died before the request took hold
+    first = os.getppid()
+
+    def orphaned() -> bool:
+        if os.getppid() != first:
+            return True
+        try:
+            os.kill(parent, 0)
+        except ProcessLookupError:
+            return True
+        except OSError:  # there, but not ours to signal
+            pass
+        return False
+
+    def watch_parent() -> None:
+        while not orphaned():
+            time.sleep(ORPHAN_POLL_S)
         os.kill(os.getpid(), signal.SIGKILL)
+
+    threading.Thread(target=watch_parent, name="voiopt-orphan-watch", daemon=True).start()
 
 
 @contextmanager
