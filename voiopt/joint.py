@@ -169,7 +169,6 @@ def _alive_backwards(last, within, nxt_cfg, moved, counted, budgets, strides, mv
     rows = [last]  # slots T-1, T-2, ... down to the first stored one
     chunk = max(1, min(CHUNK, CHUNK_WORK // (last.shape[1] * nxt_cfg.shape[1])))  # two robots with budgets of 80 on
     for _ in range(horizon - 1):  # a factory floor: 4096 joint points took seconds, past any stop
-        halt_if_asked(stop, held + (len(rows) + 1) * last.nbytes)
         here = np.zeros(last.shape, last.dtype)  # not zeros_like, which writes every byte
         same = True
         for lo in range(0, here.shape[0], chunk):

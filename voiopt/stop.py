@@ -1,6 +1,7 @@
 """One stop rule for every solver, sweep and figure run: a time limit, a memory limit, or a
-request by Ctrl-C, SIGTERM or SIGHUP (the terminal hung up). Long work calls ``stop.check()`` at safe points and, once it
-says why, returns its best plan and proven bound with that reason as the status."""
+request by Ctrl-C, SIGTERM or SIGHUP (the terminal hung up). Long work calls ``stop.check()``
+at safe points and, once it says why, returns its best plan and proven bound with that reason
+as the status."""
 
 from __future__ import annotations
 
@@ -139,11 +140,14 @@ def signals_seen() -> int:
     return len(_last_signal)
 
 
-def _silence_lost_terminal() -> None:
-    """After a SIGHUP: standard streams on a terminal that has hung up fail every write (EIO),
-    which would end the command in a traceback before it writes its ``-o`` file; point them at
-    /dev/null instead. A terminal still there (a ``kill -HUP`` by hand) answers ``isatty`` and
-    keeps its output; files and pipes are not character devices and are left alone."""
+def _silence_lost_terminal(signum: int) -> None:
+    """After a SIGHUP (other signals: nothing): standard streams on a terminal that has hung up
+    fail every write (EIO), which would end the command in a traceback before it writes its
+    ``-o`` file; point them at /dev/null instead. A terminal still there (a ``kill -HUP`` by
+    hand) answers ``isatty`` and keeps its output; files and pipes are not character devices
+    and are left alone."""
+    if signum != signal.SIGHUP:
+        return
     try:
         null = os.open(os.devnull, os.O_RDWR)
     except OSError:
@@ -164,10 +168,11 @@ def _catches(signum: int) -> bool:
 
 def _handler(signum, frame) -> None:
     _last_signal.append(signum)
-    if signum == signal.SIGHUP:
-        _silence_lost_terminal()
-    if any(s.signalled or s.reason == INTERRUPTED for s in _active):  # the second request: stop at once (also where a limit
-        _restore()  # had stopped the work first: a plan of 10^6 slots valued for 2 s swallowed every Ctrl-C)
+    _silence_lost_terminal(signum)
+    # the second request stops at once, also where a limit had stopped the work before the
+    # first (greedy valuing a plan of 10^6 slots for 2 s swallowed every Ctrl-C)
+    if any(s.signalled or s.reason == INTERRUPTED for s in _active):
+        _restore()
         raise Interrupted(signum)
     for s in _active:
         s.request(INTERRUPTED, signum)
@@ -182,8 +187,9 @@ def _restore() -> None:
 @contextmanager
 def watch(time_limit: float | None = None, memory_limit: float | None = None, labels_limit: int | None = None):
     """A Stop for the block. In the main thread the first Ctrl-C, SIGTERM or SIGHUP (unless
-    ignored, as under ``nohup``) requests a stop of every watch open (a sweep and the solve inside it alike); a second one raises Interrupted
-    at once. Elsewhere (worker threads) signals cannot be caught and only the limits apply."""
+    ignored, as under ``nohup``) requests a stop of every watch open (a sweep and the solve
+    inside it alike); a second one raises Interrupted at once. Elsewhere (worker threads)
+    signals cannot be caught and only the limits apply."""
     stop = Stop(time_limit, memory_limit, labels_limit)
     if threading.current_thread() is not threading.main_thread():
         yield stop
@@ -289,8 +295,7 @@ def sigterm_raises():
     taken = [s for s in (signal.SIGTERM, signal.SIGHUP) if signal.getsignal(s) is signal.SIG_DFL]
 
     def interrupt(signum, frame):
-        if signum == signal.SIGHUP:
-            _silence_lost_terminal()
+        _silence_lost_terminal(signum)
         raise Interrupted(signum)
 
     for s in taken:
