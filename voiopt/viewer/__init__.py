@@ -1,0 +1,1 @@
+"""The self-contained HTML plan viewer (voiopt show)."""
