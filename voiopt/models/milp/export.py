@@ -31,10 +31,14 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
         raise OptionError(f"model: unknown format {p.suffix or '(none)'!r} of {str(p)!r} (use .mps or .lp)")
     import highspy
 
-    if covering_level is None:
-        model = build(instance, objective)
-    else:
+    if covering_level is not None:
         model = _covering(instance, objective, covering_level)
+    elif objective == "min-voi":  # ln V: the same optimal plans, worths a solver resolves
+        model = build(instance, objective, log_worth=True)
+    elif objective == "mean-min-voi":  # bit/s, z in units of a reference plan's value
+        model = build(instance, objective, scale=reference_value(instance, objective))
+    else:
+        model = build(instance, objective)
     h = new_highs()
     h.silent()
     h.passModel(model.to_highs_lp(natural_units=True, names=True))
@@ -42,7 +46,50 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
         status = h.writeModel(str(tmp))
         if status == highspy.HighsStatus.kError:
             raise OptionError(f"model: HiGHS could not write {str(p)!r}")
+        try:
+            _prepend(tmp, describe(model), lp=p.suffix.lower() == ".lp")
+        except OSError as e:
+            raise OptionError(f"model: cannot write {str(p)!r}: {e.strerror or e}") from None
     return model
+
+
+def reference_value(instance: Instance, objective: str) -> float | None:
+    """The greedy plan's simulated value, the worth unit of an exported mean-min-voi model (as
+    the solver's own model uses its warm start's): z is then O(1) at the plans that matter, so
+    a solver's absolute tolerances are relative to them; None (the default unit) if it is 0
+    or for a fleet."""
+    from voiopt.solvers.baselines import greedy
+
+    if instance.fleet:  # the fleet's first plan is milp's own search (solvers/_milp_fleet_start.py)
+        return None
+    value = greedy(instance, objective).value
+    return value if value > 0 and np.isfinite(value) else None
+
+
+def describe(model: Model) -> list[str]:
+    """The comment lines at the top of an exported file: what the objective means, and the
+    model's precision (docs/milp.md, "Other solvers")."""
+    if model.aggregate == "covering":
+        return ["voiopt covering problem: feasible iff some plan keeps every sensor at the threshold or better"]
+    if model.log_worth:
+        return ["voiopt min-voi model in log-worths: maximised objective = ln(min VoI / (1 bit/s)) (nats).",
+                "z = ln V; exp(objective) is the min-voi in bit/s. Worths are the simulator's to 1e-15 relative,",
+                "V below 2.2e-308 bit/s is one value; a solver's tolerance eps is a relative error of about eps in V.",
+                "Read the plan back with voiopt import-solution: its simulated value is the result."]
+    if model.structure.kind == "voi":
+        return [f"voiopt {model.objective} model: maximised objective = mean over slots of the least VoI, bit/s.",
+                f"z_t in units of {model.scale!r} bit/s (a reference plan's value, or the caps' scale).",
+                "Precision: a solver's feasibility tolerance eps lets a slot's least worth read up to about",
+                "eps x (z unit + the slot's cap) high; the plan read back by voiopt import-solution is simulated."]
+    return [f"voiopt {model.objective} model: minimised objective in slots (ages are integers)."]
+
+
+def _prepend(path, lines: list[str], lp: bool) -> None:
+    """Put comment lines (MPS '*', LP '\\') before the file's text."""
+    mark = "\\ " if lp else "* "
+    text = Path(path).read_text(encoding="utf-8")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("".join(mark + line + "\n" for line in lines) + text)
 
 
 def covering_levels(instance: Instance, objective: str) -> np.ndarray:

@@ -38,6 +38,7 @@ from voiopt import lattice as lattice_mod
 from voiopt import objectives
 from voiopt.instance import Instance
 from voiopt.models.milp import fleet
+from voiopt.models.milp.log_worth import log_view
 from voiopt.models.milp.model import LevelTerms, Model, _Triplets
 from voiopt.models.uploads import Structure, structure
 from voiopt.stop import halt_if_asked
@@ -185,20 +186,27 @@ def level_terms(st: Structure, per_slot: bool, stop=None) -> LevelTerms:
 SCALE_RANGE = 1e4
 
 
-def build(instance: Instance, objective: str, *, scale: float | None = None, stop=None) -> Model:
+def build(instance: Instance, objective: str, *, scale: float | None = None, stop=None,
+          log_worth: bool = False) -> Model:
     """The full MILP for ``objective``: per-slot z for the mean objectives, one z for the
     min/max objectives. Maximises (1/T) sum z_t, or z, in worth units of ``scale`` (raised to
-    the largest z cap / SCALE_RANGE if below it). voiopt.stop.Stopped if ``stop`` says stop
-    while its largest parts (the worths of the uploads, the rows of the uploads) are built."""
+    the largest z cap / SCALE_RANGE if below it). ``log_worth`` (``min-voi`` only): z and the
+    worths are ln V in nats, scale 1 (models/milp/log_worth.py). voiopt.stop.Stopped if
+    ``stop`` says stop while its largest parts (the worths of the uploads, the rows of the
+    uploads) are built."""
     kind = objectives.get(objective).worth
     st = structure(instance, kind, stop)
     T = st.horizon
     per_slot = objectives.get(objective).per_slot
+    if log_worth:
+        if objective != "min-voi":
+            raise ValueError(f"log_worth: an exact epigraph for min-voi only, not {objective}")
+        st, scale = log_view(st), 1.0
     scale = float(scale) if scale is not None else default_scale(st, objective)
     if not (scale > 0 and math.isfinite(scale)):
         raise ValueError(f"scale: must be a positive finite number, got {scale!r}")
     lt = level_terms(st, per_slot, stop)
-    if kind == "voi" and len(lt.cap):  # z's bounds and coefficients within SCALE_RANGE of 1 (see SCALE_RANGE)
+    if kind == "voi" and len(lt.cap) and not log_worth:  # z's bounds and coefficients within SCALE_RANGE of 1
         scale = max(scale, float(lt.cap.max()) / SCALE_RANGE)
     h_i, h_t, h_inc = lt.sensor, lt.slot, lt.increment
 
@@ -249,7 +257,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None, sto
     model = Model(
         st, objective, "per-slot" if per_slot else "single", scale, col_lower, col_upper, cost,
         integrality, np.concatenate(tr.lower), np.concatenate(tr.upper), tr.matrix(len(col_lower)),
-        z_cols, np.concatenate(tr.z_of), lt, h_col, tuple(tr.blocks), fleet_cols,
+        z_cols, np.concatenate(tr.z_of), lt, h_col, tuple(tr.blocks), fleet_cols, log_worth,
     )
     return model
 

@@ -3,6 +3,7 @@ column and row names and the map from a plan to a full column vector."""
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from dataclasses import dataclass
@@ -89,6 +90,7 @@ class Model:
     h_cols: np.ndarray | None = None
     row_blocks: tuple[tuple[str, int], ...] = ()
     fleet: fleet_mod.FleetColumns | None = None  # several robots (models/milp/fleet.py), else None
+    log_worth: bool = False  # z and the worths are ln V (models/milp/log_worth.py), scale 1
 
     @property
     def n_cols(self) -> int:
@@ -203,7 +205,9 @@ class Model:
         return col
 
     def worth_of_objective(self, objective_value: float) -> float:
-        """A model objective value (scaled units) as a worth (the mean or the min)."""
+        """A model objective value (scaled units, or ln V) as a worth (the mean or the min)."""
+        if self.log_worth:
+            return math.exp(float(objective_value))
         return float(objective_value) * self.scale
 
 
