@@ -31,14 +31,7 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
         raise OptionError(f"model: unknown format {p.suffix or '(none)'!r} of {str(p)!r} (use .mps or .lp)")
     import highspy
 
-    if covering_level is not None:
-        model = _covering(instance, objective, covering_level)
-    elif objective == "min-voi":  # ln V: the same optimal plans, worths a solver resolves
-        model = build(instance, objective, log_worth=True)
-    elif objective == "mean-min-voi":  # bit/s, z in units of a reference plan's value
-        model = build(instance, objective, scale=reference_value(instance, objective))
-    else:
-        model = build(instance, objective)
+    model = export_model(instance, objective, covering_level)
     h = new_highs()
     h.silent()
     h.passModel(model.to_highs_lp(natural_units=True, names=True))
@@ -51,6 +44,20 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
         except OSError as e:
             raise OptionError(f"model: cannot write {str(p)!r}: {e.strerror or e}") from None
     return model
+
+
+def export_model(instance: Instance, objective: str, covering_level: int | None = None) -> Model:
+    """The model ``export`` writes (and ``cvxpy_problem`` holds): ``min-voi`` in log-worths,
+    ``mean-min-voi`` with z in units of a reference plan's value, the AoI objectives as the
+    solver builds them, or the covering problem of ``covering_level``."""
+    check_objective(objective)
+    if covering_level is not None:
+        return _covering(instance, objective, covering_level)
+    if objective == "min-voi":  # ln V: the same optimal plans, worths a solver resolves
+        return build(instance, objective, log_worth=True)
+    if objective == "mean-min-voi":  # bit/s, z in units of a reference plan's value
+        return build(instance, objective, scale=reference_value(instance, objective))
+    return build(instance, objective)
 
 
 def reference_value(instance: Instance, objective: str) -> float | None:
