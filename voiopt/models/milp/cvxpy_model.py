@@ -3,9 +3,9 @@ cvxpy MILP back-end (HiGHS, SCIP, GLPK_MI, Gurobi, ...).
 
     import cvxpy as cp
     from voiopt.models.milp import cvxpy_problem
-    problem, to_plan = cvxpy_problem(instance, "mean-min-voi")
+    problem, to_plan = cvxpy_problem(instance, objective)
     problem.solve(solver=cp.HIGHS)
-    result = voiopt.Result.from_plan(instance, "cvxpy", "mean-min-voi", to_plan(), status="feasible", runtime_s=0)
+    result = voiopt.Result.from_plan(instance, "cvxpy", objective, to_plan(), status="feasible", runtime_s=0)
 
 It is the model ``voiopt export`` writes (models/milp/export.py: ``min-voi`` in log-worths,
 ``mean-min-voi`` in units of a reference plan's value), built from the same arrays: one

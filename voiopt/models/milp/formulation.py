@@ -199,7 +199,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None, sto
     T = st.horizon
     per_slot = objectives.get(objective).per_slot
     if log_worth:
-        if objective != "min-voi":
+        if kind != "voi" or per_slot:
             raise ValueError(f"log_worth: an exact epigraph for min-voi only, not {objective}")
         st, scale = log_view(st), 1.0
     scale = float(scale) if scale is not None else default_scale(st, objective)
