@@ -405,7 +405,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--verbose", action="store_true", help="milp: show HiGHS's own log on stderr")
     s.set_defaults(func=cmd_solve)
 
-    s = _command(sub, "export", "write the MILP of an instance as MPS or LP (by extension)", cmd_export)
+    s = _command(sub, "export", "write the MILP of an instance as MPS or LP (by extension; min-voi's objective is "
+                 "ln of the min VoI, see the file's comments)", cmd_export)
     s.add_argument("instance", metavar="INSTANCE", help="an instance JSON file")
     s.add_argument("model", metavar="MODEL", help="output file, .mps or .lp")
     s.add_argument("--objective", default=DEFAULT, choices=list(OBJECTIVES), help="(default mean-min-voi)")

@@ -20,8 +20,9 @@ EXPORT_FORMATS = (".mps", ".lp")
 
 
 def export(instance: Instance, objective: str, path: str | os.PathLike, covering_level: int | None = None) -> Model:
-    """Write the MILP of ``objective`` as MPS or LP (by extension), objective in its own units
-    and sense (mean or min VoI in bit/s maximised; mean or max AoI minimised). For ``min-voi``
+    """Write the MILP of ``objective`` as MPS or LP (by extension), with comment lines on its
+    objective and precision (``describe``): mean VoI in bit/s and min VoI as ln(bit/s)
+    maximised (``export_model``); mean or max AoI minimised. For ``min-voi``
     and ``max-aoi``, ``covering_level`` K writes instead the bisection's covering problem for
     the K-th smallest candidate worth (0-based; ``covering_levels`` counts them): feasible iff
     some plan keeps every sensor at that worth or better in every slot."""
