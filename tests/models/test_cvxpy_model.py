@@ -42,3 +42,16 @@ def test_without_cvxpy_one_line_names_the_extra(monkeypatch):
     with pytest.raises(MissingExtraError) as e:
         cvxpy_problem(INSTANCES["paper-n3-t10-000"], "min-voi")
     assert "pip install 'voiopt[cvxpy]'" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_highs_and_scip_default_to_a_zero_gap_and_the_caller_still_decides(monkeypatch):
+    cp = pytest.importorskip("cvxpy", reason="cvxpy is not installed (pip install 'voiopt[cvxpy]')")
+    problem, _ = cvxpy_problem(INSTANCES["paper-n3-t10-000"], "min-voi")
+    seen = []
+    monkeypatch.setattr(cp.Problem, "solve", lambda self, *a, **kw: seen.append(kw))
+    problem.solve(solver=cp.HIGHS)
+    problem.solve(solver="highs", mip_rel_gap=0.01)
+    problem.solve(solver=cp.SCIP)
+    problem.solve(solver=cp.SCIP, scip_params={"limits/gap": 0.1})
+    assert [kw.get("mip_rel_gap") for kw in seen[:2]] == [0.0, 0.01]
+    assert [kw["scip_params"]["limits/gap"] for kw in seen[2:]] == [0.0, 0.1]

@@ -80,7 +80,7 @@ def _exact_problem_class(cp) -> type:
             the call says otherwise."""
 
             def solve(self, *args, **kwargs):
-                solver = kwargs.get("solver", args[0] if args else None)
+                solver = str(kwargs.get("solver", args[0] if args else "")).upper()
                 if solver == cp.HIGHS and "mip_rel_gap" not in kwargs.get("highs_options", {}):
                     kwargs.setdefault("mip_rel_gap", 0.0)
                 elif solver == cp.SCIP:
