@@ -125,7 +125,7 @@ def header(argv: list[str]) -> str:
     return "\n".join([
         "# Other solvers on the exported VoI-Lib MILPs",
         "",
-        f"- command: `python benchmarks/export_solvers.py {' '.join(argv)}`".replace(" `", "`"),
+        f"- command: `{' '.join(['python benchmarks/export_solvers.py', *argv])}`",
         f"- commit: {commit}{' (with uncommitted changes)' if dirty else ''}",
         f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC",
         f"- machine: {platform.machine()}, {os.cpu_count()} cores, load {load:.1f} at the start; "
