@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from voiopt import objectives
-from voiopt._files import atomic_path
+from voiopt._files import atomic_write
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.models.milp.formulation import build, build_covering
@@ -36,12 +38,15 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
     h = new_highs()
     h.silent()
     h.passModel(model.to_highs_lp(natural_units=True, names=True))
-    with atomic_path(p) as tmp:  # a cut-off model never replaces the file
-        status = h.writeModel(str(tmp))
-        if status == highspy.HighsStatus.kError:
+    with tempfile.TemporaryDirectory(prefix="voiopt-export-") as folder:
+        tmp = Path(folder) / f"model{Path(path).suffix}"  # the name the user gave picks the format
+        if h.writeModel(str(tmp)) == highspy.HighsStatus.kError:
             raise OptionError(f"model: HiGHS could not write {str(p)!r}")
+        mark = "\\ " if p.suffix.lower() == ".lp" else "* "
         try:
-            _prepend(tmp, describe(model), lp=p.suffix.lower() == ".lp")
+            with atomic_write(p) as out, open(tmp, encoding="utf-8") as text:  # a cut-off model never replaces the file
+                out.write("".join(mark + line + "\n" for line in describe(model)))
+                shutil.copyfileobj(text, out)
         except OSError as e:
             raise OptionError(f"model: cannot write {str(p)!r}: {e.strerror or e}") from None
     return model
@@ -89,14 +94,6 @@ def describe(model: Model) -> list[str]:
                 "Precision: a solver's feasibility tolerance eps lets a slot's least worth read up to about",
                 "eps x (z unit + the slot's cap) high; the plan read back by voiopt import-solution is simulated."]
     return [f"voiopt {model.objective} model: minimised objective in slots (ages are integers)."]
-
-
-def _prepend(path, lines: list[str], lp: bool) -> None:
-    """Put comment lines (MPS '*', LP '\\') before the file's text."""
-    mark = "\\ " if lp else "* "
-    text = Path(path).read_text(encoding="utf-8")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("".join(mark + line + "\n" for line in lines) + text)
 
 
 def covering_levels(instance: Instance, objective: str) -> np.ndarray:
