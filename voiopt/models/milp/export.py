@@ -54,28 +54,17 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
 
 def export_model(instance: Instance, objective: str, covering_level: int | None = None) -> Model:
     """The model ``export`` writes (and ``cvxpy_problem`` holds): ``min-voi`` in log-worths,
-    ``mean-min-voi`` with z in units of a reference plan's value, the AoI objectives as the
-    solver builds them, or the covering problem of ``covering_level``."""
+    the others with z in units of ``default_scale`` (the mean cap on a slot's least worth for
+    ``mean-min-voi``), or the covering problem of ``covering_level``. (For ``mean-min-voi`` a
+    unit below the optimum, the value of a plan without uploads, was tried: HiGHS then stopped
+    at plans 100 % short on two of the extreme-worth networks that the mean cap solves.)"""
     check_objective(objective)
     if covering_level is not None:
         return _covering(instance, objective, covering_level)
     spec = objectives.get(objective)
     if spec.worth == "voi" and not spec.per_slot:  # min-voi in ln V: the same optimal plans, worths a solver resolves
         return build(instance, objective, log_worth=True)
-    if spec.worth == "voi":  # mean-min-voi in bit/s, z in units of a plan's value below the optimum
-        return build(instance, objective, scale=reference_value(instance, objective))
-    return build(instance, objective)
-
-
-def reference_value(instance: Instance, objective: str) -> float | None:
-    """The worth unit of an exported mean-min-voi model: the value of a plan that uploads
-    nothing (every sensor keeps its initial packet: the mean over slots of min_i w0_i(t)), a
-    lower bound on the optimum, so z is at least O(1) at the plans that matter and a solver's
-    absolute tolerances are at most relative ones; ``build`` raises it to the largest z cap /
-    SCALE_RANGE (coefficients within 1e4 of 1). None (the default unit) if it is 0."""
-    st = structure(instance, objectives.get(objective).worth)
-    value = float(st.worth0[1:].min(axis=1).mean())
-    return value if value > 0 and np.isfinite(value) else None
+    return build(instance, objective)  # mean-min-voi in bit/s, z in units of the mean cap (default_scale)
 
 
 def describe(model: Model) -> list[str]:
@@ -90,7 +79,7 @@ def describe(model: Model) -> list[str]:
                 "Read the plan back with voiopt import-solution: its simulated value is the result."]
     if model.structure.kind == "voi":
         return [f"voiopt {model.objective} model: maximised objective = mean over slots of the least VoI, bit/s.",
-                f"z_t in units of {model.scale!r} bit/s: the value of a plan without uploads, or the largest cap / 1e4.",
+                f"z_t in units of {model.scale!r} bit/s (the mean over slots of the cap on a slot's least worth).",
                 "Precision: a solver's feasibility tolerance eps lets a slot's least worth read up to about",
                 "eps x (z unit + the slot's cap) high; the plan read back by voiopt import-solution is simulated."]
     return [f"voiopt {model.objective} model: minimised objective in slots (ages are integers)."]
