@@ -28,6 +28,7 @@ _HOMES = {
     **dict.fromkeys(("Result", "load_result"), "voiopt.core.result"),
     **dict.fromkeys(("Trajectory", "evaluate", "simulate"), "voiopt.core.simulate"),
     **dict.fromkeys(("METHODS", "solve"), "voiopt.solvers"),
+    "Status": "voiopt.runtime.status",
 }
 
 
@@ -54,6 +55,6 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "Channel", "FleetPlan", "Instance", "InstanceError", "METHODS", "OBJECTIVES", "OptionError", "Plan",
-    "PlanError", "Result", "Robot", "Sensor", "Trajectory", "VoioptError", "case_study", "evaluate",
+    "PlanError", "Result", "Robot", "Sensor", "Status", "Trajectory", "VoioptError", "case_study", "evaluate",
     "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
 ]
