@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from voiopt.errors import MissingExtraError, OptionError
+from voiopt.objectives import Worth
 
 try:
     import gymnasium as gym
@@ -122,7 +123,7 @@ class VoIEnv(gym.Env):
             raise OptionError(f"render_mode: must be 'ansi' or 'rgb_array', got {render_mode!r}")
         if reward_mode not in REWARD_MODES:
             raise OptionError(f"reward_mode: must be 'paper' or 'normalised', got {reward_mode!r}")
-        if reward_mode == "normalised" and reward != "voi":
+        if reward_mode == "normalised" and reward != Worth.VOI:
             raise OptionError(f"reward_mode: 'normalised' divides the VoI reward by the mean-min-voi optimum; "
                               f"with reward={reward!r} use reward_mode='paper'")
         if infeasible not in INFEASIBLE:
