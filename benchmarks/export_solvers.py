@@ -26,9 +26,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from voiopt.experiments import voilib
-from voiopt.models.milp import export
-from voiopt.models.milp.solution_file import import_solution
+from voiopt.solvers.milp.export import export
+from voiopt.solvers.milp.solution_file import import_solution
+from voiopt.voilib import library as voilib
 
 MATCH_RTOL = 1e-6  # an optimal claim's tolerance (MODEL.md section 6)
 ROOT = Path(__file__).resolve().parent.parent
@@ -175,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
     text = "\n".join([head, "| solver | objective | solves | equal | time limit | MISREAD | other |",
                       "|---|---|---|---|---|---|---|", *summary, "",
                       f"Total wall time {time.perf_counter() - t0:.0f} s.", "", *lines, ""])
-    from voiopt._files import atomic_write
+    from voiopt.runtime.files import atomic_write
 
     with atomic_write(args.out) as f:
         f.write(text)

@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 from conftest import solve_model_file
 
-from voiopt.experiments import voilib
-from voiopt.models.milp import build, export, export_model
-from voiopt.models.milp.log_worth import LOG_FLOOR, log_of
-from voiopt.models.milp.solution_file import import_solution
-from voiopt.simulate import check_plan
+from voiopt.core.simulate import check_plan
+from voiopt.solvers.milp.export import export, export_model
+from voiopt.solvers.milp.formulation import build
+from voiopt.solvers.milp.log_worth import LOG_FLOOR, log_of
+from voiopt.solvers.milp.solution_file import import_solution
+from voiopt.voilib import library as voilib
 
 INSTANCES = voilib.instances()
 # min-voi optima from 1e-20 to 1e4 bit/s (walls-n4-t30-002 and paper-n4-t20-000's 2e-7 were
@@ -73,7 +74,7 @@ def test_the_log_worth_model_values_the_certified_plan_at_ln_of_the_certificate(
 
 
 def _plan(cert):
-    from voiopt.plan import Plan
+    from voiopt.core.plan import Plan
 
     return Plan.from_dict(cert["plan"])
 

@@ -1,4 +1,4 @@
-"""voiopt.models.milp.cvxpy_problem: the time-expanded MILP as a cvxpy Problem, solved by
+"""voiopt.solvers.milp.cvxpy_problem: the time-expanded MILP as a cvxpy Problem, solved by
 cvxpy's HiGHS back-end, its plan valued by the simulator against VoI-Lib's certificates."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ import sys
 
 import pytest
 
+from voiopt.core.result import Result
 from voiopt.errors import MissingExtraError, OptionError
-from voiopt.experiments import voilib
-from voiopt.models.milp import cvxpy_problem
-from voiopt.result import Result
+from voiopt.solvers.milp import cvxpy_problem
+from voiopt.voilib import library as voilib
 
 INSTANCES = voilib.instances()
 # five small VoI-Lib instances; min-voi optima from 8e-20 to 1e4 bit/s, and the other objectives

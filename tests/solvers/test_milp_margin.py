@@ -12,10 +12,11 @@ import pytest
 from conftest import tiny_instances
 from oracles.bruteforce import brute_force
 
-from voiopt.instance import from_dict
-from voiopt.models.milp import build, new_highs
-from voiopt.solvers.baselines import greedy
-from voiopt.solvers.milp import BOUND_ABS_FACTOR, BOUND_RTOL, TOLERANCES, solve
+from voiopt.core.instance import from_dict
+from voiopt.solvers.baselines.heuristics import greedy
+from voiopt.solvers.milp.formulation import build
+from voiopt.solvers.milp.model import new_highs
+from voiopt.solvers.milp.solver import BOUND_ABS_FACTOR, BOUND_RTOL, TOLERANCES, solve
 
 EXTREME = {d["name"]: from_dict(d) for d in json.loads(
     (Path(__file__).resolve().parents[1] / "data" / "milp_extreme_worths.json").read_text())}
