@@ -24,7 +24,7 @@ __version__ = "0.1.0"
 _HOMES = {
     **dict.fromkeys(("InstanceError", "OptionError", "PlanError", "VoioptError"), "voiopt.errors"),
     **dict.fromkeys(("case_study", "generate", "generate_set"), "voiopt.generate"),
-    **dict.fromkeys(("Channel", "Instance", "Robot", "Sensor", "load", "save"), "voiopt.instance"),
+    **dict.fromkeys(("Channel", "Instance", "Links", "Robot", "Sensor", "load", "save"), "voiopt.instance"),
     "OBJECTIVES": "voiopt.objectives",
     **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.plan"),
     **dict.fromkeys(("Result", "load_result"), "voiopt.result"),
@@ -69,7 +69,7 @@ sys.modules[__name__].__class__ = _Package
 
 
 __all__ = [
-    "Channel", "FleetPlan", "Instance", "InstanceError", "METHODS", "OBJECTIVES", "OptionError", "Plan",
+    "Channel", "FleetPlan", "Instance", "InstanceError", "Links", "METHODS", "OBJECTIVES", "OptionError", "Plan",
     "PlanError", "Result", "Robot", "Sensor", "Trajectory", "VoioptError", "case_study", "evaluate",
     "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
 ]
