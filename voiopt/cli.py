@@ -13,7 +13,7 @@ from rich.console import Console
 from rich.table import Table
 
 import voiopt
-from voiopt import _numba_start, fields, lattice
+from voiopt import _numba_start, cli_lossy, fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file, dumps_json, read_json
 from voiopt.cli_bench import add_commands as add_bench_commands
@@ -120,7 +120,7 @@ def cmd_evaluate(args) -> int:
     d = read_json(args.plan, error=PlanError)
     plan = plan_of(d, args.plan, inst.name)
     try:
-        metrics = voiopt.evaluate(inst, plan)
+        metrics = cli_lossy.metrics(inst, plan)
     except PlanError as e:  # the plan breaks a rule of this instance: name the plan's file
         raise PlanError(f"{args.plan}: {e}") from None
     differ = None
@@ -132,9 +132,9 @@ def cmd_evaluate(args) -> int:
         err.print(f"note: {args.plan} says otherwise ({differ}): it was solved on another instance than "
                   f"{args.instance}, or edited", markup=False)
     if args.json:
-        print(json.dumps({"instance": inst.name, "metrics": metrics}, indent=2))
+        print(json.dumps(cli_lossy.evaluation_json(inst, metrics), indent=2))
     else:
-        out.print(_metrics_table({Path(args.plan).name: metrics}, title=inst.name))
+        out.print(_metrics_table({Path(args.plan).name: metrics}, title=cli_lossy.title(inst)))
     return 0
 
 
@@ -151,7 +151,7 @@ def _generate_options(args) -> dict:
                               "--sensors, --horizon, --max-moves and --robots")
         return dict(n_sensors=args.sensors, horizon=args.horizon or fields.FACTORY_HORIZON,
                     max_moves=fields.FACTORY_MAX_MOVES if args.max_moves is None else args.max_moves,
-                    robots=args.robots)
+                    robots=args.robots, links=args.links)
     if args.dock and args.robots < 2:
         raise OptionError(f"--dock: starts the robots around robot 0's start; give --robots K with K >= 2 "
                           f"(got --robots {args.robots})")
@@ -161,7 +161,7 @@ def _generate_options(args) -> dict:
         height=pick(args.height, 5.0), step=pick(args.step, 1.0), rho=tuple(pick(args.rho, [0.0, 1.0])),
         power_w=pick(args.power, 1.0), initial_aoi=tuple(pick(args.initial_aoi, [1, 1])),
         blocked_fraction=pick(args.blocked_fraction, 0.0), end=end, max_moves=args.max_moves,
-        robots=args.robots, dock=args.dock,
+        robots=args.robots, dock=args.dock, links=args.links,
     )
 
 
@@ -373,6 +373,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--robots", type=int, default=1, metavar="K",
                    help="K robots (MODEL.md section 10) with distinct starts (default 1); the factory preset puts "
                         "them at the free points nearest the dock")
+    cli_lossy.add_links_option(s)
     s.add_argument("--dock", action="store_true",
                    help="with --robots: start the robots at the free points nearest robot 0's start")
     s.add_argument("--seed", type=_seed, default=0, help="the networks depend on it alone (default 0)")
