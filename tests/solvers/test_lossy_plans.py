@@ -112,3 +112,21 @@ def test_optimal_needs_an_exact_value_and_an_exact_bound(case_study):
     with pytest.raises(RuntimeError, match="worse than the exact value"):
         voiopt.Result.lossy(inst, "x", "mean-min-voi", status="feasible", metrics=m, evaluation="exact", plan=plan,
                             bound=v * 0.9, bound_kind="lossless")
+
+
+def test_every_caller_of_the_registry_gets_the_lossy_valuation(case_study):
+    """The sweep runner calls solver_function directly: it is wrapped there, keeping the signature."""
+    import inspect
+
+    from voiopt.solvers import METHODS, POLICY_METHODS, solver_function
+    from voiopt.solvers.baselines import greedy
+
+    fn = solver_function("greedy")
+    assert inspect.signature(fn) == inspect.signature(greedy)
+    inst = lossy(case_study, {"model": "bernoulli", "success": 0.6})
+    r = fn(inst, "mean-min-voi")
+    assert r.evaluation == "exact" and r.metrics == expected_metrics(inst, r.plan)
+    assert fn(case_study, "mean-min-voi").to_dict().keys() == greedy(case_study, "mean-min-voi").to_dict().keys()
+    assert not POLICY_METHODS - set(METHODS)
+    with pytest.raises(voiopt.OptionError, match="not an option of method 'greedy'"):
+        voiopt.solve(inst, "greedy", episodes=3)
