@@ -46,10 +46,11 @@ def sample_scenarios(instance: Instance, count: int, seed: int) -> np.ndarray:
     return rng.random((count, instance.horizon, instance.n_sensors))
 
 
-def successes(instance: Instance, idx: np.ndarray, sched: np.ndarray, u_row: np.ndarray) -> np.ndarray:
+def successes(instance: Instance, idx: np.ndarray, sched: np.ndarray, u_row: np.ndarray,
+              table: np.ndarray | None = None) -> np.ndarray:
     """Bool array of sched's shape: True where an upload is scheduled and succeeds in scenario
-    ``u_row`` ((T, N) uniforms), U(t, i) < p_i(d)."""
-    table = success_table(instance, lattice_mod.build(instance))
+    ``u_row`` ((T, N) uniforms), U(t, i) < p_i(d) (``table``: the instance's success_table)."""
+    table = success_table(instance, lattice_mod.build(instance)) if table is None else table
     t = np.broadcast_to(np.arange(instance.horizon), sched.shape)
     up = sched >= 0
     out = np.zeros(sched.shape, dtype=bool)
@@ -79,8 +80,9 @@ def monte_carlo(instance: Instance, plan_or_run: Plan | FleetPlan | Callable[[np
                           f"got shape {scenarios.shape}")
     if isinstance(plan_or_run, (Plan, FleetPlan)):
         idx, sched = check_plan(instance, plan_or_run)
-        values = [simulate_indices(instance, idx, np.where(successes(instance, idx, sched, u), sched, -1)).metrics[objective]
-                  for u in scenarios]
+        table = success_table(instance, lattice_mod.build(instance))
+        values = [simulate_indices(instance, idx, np.where(successes(instance, idx, sched, u, table), sched, -1)
+                                   ).metrics[objective] for u in scenarios]
     else:
         values = [simulate(instance, plan_or_run(u)).metrics[objective] for u in scenarios]
     return estimate(values)
@@ -88,12 +90,12 @@ def monte_carlo(instance: Instance, plan_or_run: Plan | FleetPlan | Callable[[np
 
 def estimate(values) -> Estimate:
     """Mean and two-sided 95 % Student-t confidence interval of i.i.d. samples (at least 2)."""
-    from scipy import stats
+    from scipy.special import stdtrit  # the Student-t quantile (scipy.stats takes seconds to import)
 
     x = np.asarray(values, dtype=float)
     n = len(x)
     mean = float(x.mean())
-    half = float(stats.t.ppf(0.5 + CONFIDENCE / 2, n - 1) * x.std(ddof=1) / math.sqrt(n))
+    half = float(stdtrit(n - 1, 0.5 + CONFIDENCE / 2) * x.std(ddof=1) / math.sqrt(n))
     return Estimate(mean, (mean - half, mean + half), n)
 
 
