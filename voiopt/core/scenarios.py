@@ -90,7 +90,8 @@ def monte_carlo(instance: Instance, plan_or_run: Plan | FleetPlan | Callable[[np
 
 def estimate(values) -> Estimate:
     """Mean and two-sided 95 % Student-t confidence interval of i.i.d. samples (at least 2)."""
-    from scipy.special import stdtrit  # the Student-t quantile (scipy.stats takes seconds to import)
+    # the Student-t quantile; scipy.stats would take seconds to import
+    from scipy.special import stdtrit
 
     x = np.asarray(values, dtype=float)
     n = len(x)
