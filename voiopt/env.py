@@ -277,7 +277,7 @@ class VoIEnv(gym.Env):
         self._schedule.append(u)
         self._idle += u < 0
         self.state, reward = self.model.step(self.state, k)
-        reward += Outcomes.refund(outcome, self.options["penalty"])
+        reward = Outcomes.refunded(reward, outcome, self.options["penalty"])
         if self.reward_mode == "normalised":
             _, aoi, qidx, *_ = self.state
             reward = min(float(self.model.voi_reward[i, a_, q]) for i, (a_, q) in enumerate(zip(aoi, qidx, strict=True)))
@@ -484,7 +484,7 @@ class FleetVoIEnv(VoIEnv):
         if Outcomes.failed(outcome):  # each failed upload acts as its robot's move alone
             j = self._mdp_number([m % 5 if ok is False else m for m, ok in zip(self.split_action(self._env_number(j)), outcome, strict=True)])
         self.state, reward = self.joint.step(self.state, j)
-        reward += Outcomes.refund(outcome, self.options["penalty"])
+        reward = Outcomes.refunded(reward, outcome, self.options["penalty"])
         if not feasible:
             reward -= self.options["penalty"]
             self._penalised += 1

@@ -38,9 +38,11 @@ class Outcomes:
         return bool(outcome) and False in outcome
 
     @staticmethod
-    def refund(outcome: list[bool | None] | None, penalty: float) -> float:
-        """The f_penalty the model charged for each failed upload executed as no upload."""
-        return penalty * sum(ok is False for ok in outcome or ())
+    def refunded(reward: float, outcome: list[bool | None] | None, penalty: float) -> float:
+        """``reward`` with the f_penalty the model charged for each failed upload (executed as no
+        upload) given back; ``reward`` itself, untouched, where nothing failed."""
+        failed = sum(ok is False for ok in outcome or ())
+        return reward + penalty * failed if failed else reward
 
     def info(self, outcome: list[bool | None] | None) -> dict[str, Any]:
         if outcome is None:
