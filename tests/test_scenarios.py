@@ -116,3 +116,24 @@ def test_bad_scenarios_are_option_errors(case):
         monte_carlo(inst, plan, np.zeros((1, inst.horizon, inst.n_sensors)), "min-voi")
     with pytest.raises(OptionError, match="u_row"):
         realise(inst, plan, np.zeros((inst.horizon + 1, inst.n_sensors)))
+
+
+def test_a_stop_ends_monte_carlo_with_the_scenarios_done(case):
+    from voiopt.stop import Stop, Stopped
+
+    inst, plan = case
+    scen = sample_scenarios(inst, 50, seed=9)
+    stop, runs = Stop(), []
+
+    def run(u):
+        runs.append(1)
+        if len(runs) == 5:
+            stop.request()
+        return realise(inst, plan, u)
+
+    est = monte_carlo(inst, run, scen, "mean-min-voi", stop=stop)
+    assert est.count == 5 and est == monte_carlo(inst, plan, scen[:5], "mean-min-voi")
+    stop = Stop()
+    stop.request()
+    with pytest.raises(Stopped):
+        monte_carlo(inst, plan, scen, "mean-min-voi", stop=stop)
