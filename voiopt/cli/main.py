@@ -13,6 +13,7 @@ from rich.console import Console
 from rich.table import Table
 
 import voiopt
+from voiopt.cli import lossy as cli_lossy
 from voiopt.cli.arguments import Parser, at_least, count
 from voiopt.cli.bench import add_commands as add_bench_commands
 from voiopt.core import instance as instance_mod
@@ -89,7 +90,7 @@ def cmd_evaluate(args) -> int:
     d = read_json(args.plan, error=PlanError)
     plan = plan_of(d, args.plan, inst.name)
     try:
-        metrics = voiopt.evaluate(inst, plan)
+        metrics = cli_lossy.metrics(inst, plan)
     except PlanError as e:  # the plan breaks a rule of this instance: name the plan's file
         raise PlanError(f"{args.plan}: {e}") from None
     differ = None
@@ -101,9 +102,9 @@ def cmd_evaluate(args) -> int:
         err.print(f"note: {args.plan} says otherwise ({differ}): it was solved on another instance than "
                   f"{args.instance}, or edited", markup=False)
     if args.json:
-        print(json.dumps({"instance": inst.name, "metrics": metrics}, indent=2))
+        print(json.dumps(cli_lossy.evaluation_json(inst, metrics), indent=2))
     else:
-        out.print(_metrics_table({Path(args.plan).name: metrics}, title=inst.name))
+        out.print(_metrics_table({Path(args.plan).name: metrics}, title=cli_lossy.title(inst)))
     return 0
 
 
@@ -120,7 +121,7 @@ def _generate_options(args) -> dict:
                               "--sensors, --horizon, --max-moves and --robots")
         return dict(n_sensors=args.sensors, horizon=args.horizon or fields.FACTORY_HORIZON,
                     max_moves=fields.FACTORY_MAX_MOVES if args.max_moves is None else args.max_moves,
-                    robots=args.robots)
+                    robots=args.robots, links=args.links)
     if args.dock and args.robots < 2:
         raise OptionError(f"--dock: starts the robots around robot 0's start; give --robots K with K >= 2 "
                           f"(got --robots {args.robots})")
@@ -130,7 +131,7 @@ def _generate_options(args) -> dict:
         height=pick(args.height, 5.0), step=pick(args.step, 1.0), rho=tuple(pick(args.rho, [0.0, 1.0])),
         power_w=pick(args.power, 1.0), initial_aoi=tuple(pick(args.initial_aoi, [1, 1])),
         blocked_fraction=pick(args.blocked_fraction, 0.0), end=end, max_moves=args.max_moves,
-        robots=args.robots, dock=args.dock,
+        robots=args.robots, dock=args.dock, links=args.links,
     )
 
 
@@ -188,7 +189,7 @@ def cmd_solve(args) -> int:
         print(dumps_json(result.to_dict()))
     elif not args.quiet:
         out.print(result.summary(), markup=False)
-        out.print(_metrics_table({result.method: result.metrics}) if result.metrics else
+        out.print(_metrics_table({result.method: result.metrics}, cli_lossy.solve_title(inst)) if result.metrics else
                   f"no plan{': ' + result.solver['note'] if result.solver.get('note') else ''}", markup=False)
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
@@ -342,6 +343,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--robots", type=int, default=1, metavar="K",
                    help="K robots (MODEL.md section 10) with distinct starts (default 1); the factory preset puts "
                         "them at the free points nearest the dock")
+    cli_lossy.add_links_option(s)
     s.add_argument("--dock", action="store_true",
                    help="with --robots: start the robots at the free points nearest robot 0's start")
     s.add_argument("--seed", type=_seed, default=0, help="the networks depend on it alone (default 0)")

@@ -17,6 +17,7 @@ from voiopt.core.instance import Instance
 from voiopt.core.result import Result
 from voiopt.errors import OptionError
 from voiopt.objectives import DEFAULT, Objective
+from voiopt.solvers import lossy_plans
 from voiopt.solvers.base import DP_MAX_ROBOTS
 from voiopt.solvers.options import Options
 
@@ -48,6 +49,10 @@ METHODS: dict[str, Method] = {
     "beam": Method("voiopt.solvers.dp.beam", "solve", "Options"),
 }
 
+# methods that return a policy and value it themselves under lossy links (MODEL.md section 11);
+# every other method's plan is valued by its exact expectation (voiopt.solvers.lossy_plans)
+POLICY_METHODS: frozenset[str] = frozenset()
+
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds
 RANDOMISED = frozenset({"qlearning", "aoi-qlearning"})
 
@@ -70,8 +75,11 @@ def _entry(method: str) -> Method:
 
 
 def solver_function(method: str) -> Solver:
+    """The solve function of ``method``; a plan method's is wrapped so that, on a lossy
+    instance, its plan is valued exactly (MODEL.md section 11, ``lossy_plans``)."""
     entry = _entry(method)
-    return getattr(importlib.import_module(entry.module), entry.function)
+    fn = getattr(importlib.import_module(entry.module), entry.function)
+    return fn if method in POLICY_METHODS else lossy_plans.plan_method(fn)
 
 
 def options_class(method: str) -> type[Options]:
