@@ -8,11 +8,12 @@ cvxpy MILP back-end (HiGHS, SCIP, GLPK_MI, Gurobi, ...).
     result = voiopt.Result.from_plan(instance, "cvxpy", objective, to_plan(), status="feasible", runtime_s=0)
 
 It is the model ``voiopt export`` writes (solvers/milp/export.py: ``min-voi`` in log-worths,
-``mean-min-voi`` in units of a reference plan's value), built from the same arrays: one
-vector variable with integer entries where the model has binaries, its bounds, and
-``A @ x`` against the row bounds with the scipy sparse matrix. ``problem.value`` is in the
-model's units (ln V for ``min-voi``; ``to_plan`` documents the plan's worth): the plan
-``to_plan()`` reads from the solution is what counts, valued by the simulator.
+the others with z in units of the model's ``scale``), built from the same arrays: one vector
+variable with integer entries where the model has binaries, its bounds, and ``A @ x``
+against the row bounds with the scipy sparse matrix. ``problem.value`` is in the model's
+units (ln V for ``min-voi``, the mean worth / ``scale`` for the mean objectives, minus the
+age for AoI): the plan ``to_plan()`` reads from the solution is what counts, valued by the
+simulator.
 
 A solve by HiGHS or SCIP without gap options runs to a relative gap of 0 (HiGHS's default
 stops at 1e-4, which on these models can return a plan 1e-4 short of the optimum); pass
