@@ -30,8 +30,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "docs" / "results"
 MEASURED = "measured by the command above"
-CARRIED = ("carried over from the docs before the tables were generated (the command, commit, date and "
-           "machine of those runs are not recorded here); regenerate with make results")
+CARRIED = ("carried over from the docs before the tables were generated; regenerate with make results "
+           "(the fields above are what the docs recorded of that run)")
 #: the header fields every table has, in order
 FIELDS = ("Command", "Commit", "Date", "Machine", "Software", "Source")
 VERSIONS = ("numpy", "numba", "highspy")
@@ -82,10 +82,14 @@ def software() -> str:
     return ", ".join(parts)
 
 
-def header(name: str, command: str, source: str = MEASURED, when: str | None = None) -> str:
-    """The header of ``docs/results/<name>.md``: one bullet per field of ``FIELDS``."""
-    when = when or datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    values = (f"`{command}`", commit(), when, machine(), software(), source)
+def header(name: str, command: str, source: str = MEASURED, **given: str) -> str:
+    """The header of ``docs/results/<name>.md``: one bullet per field of ``FIELDS``.
+
+    ``given`` replaces a field (``Commit=``, ``Date=``, ``Machine=``, ``Software=``) for a table
+    carried over from a run that this process did not make."""
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    values = (f"`{command}`", given.get("Commit") or commit(), given.get("Date") or now,
+              given.get("Machine") or machine(), given.get("Software") or software(), source)
     lines = [f"# {name}", "", "Written by the benchmark itself (benchmarks/report.py); do not edit by hand.", ""]
     lines += [f"- {field}: {value}" for field, value in zip(FIELDS, values, strict=True)]
     return "\n".join(lines) + "\n"
@@ -116,7 +120,7 @@ def _render(lines: list[str], table: bool) -> str:
     return "```text\n" + "\n".join(lines) + "\n```" if lines else ""
 
 
-def write(name: str, command: str, text: str, source: str = MEASURED) -> Path | None:
+def write(name: str, command: str, text: str, source: str = MEASURED, **given: str) -> Path | None:
     """Write ``text`` (printed output) as ``<results>/<name>.md``, atomically; None when disabled."""
     folder = os.environ.get("VOIOPT_RESULTS_DIR", str(RESULTS))
     if folder == "-":
@@ -127,7 +131,7 @@ def write(name: str, command: str, text: str, source: str = MEASURED) -> Path | 
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(path) as f:
-            f.write(header(name, command, source) + "\n" + body(text))
+            f.write(header(name, command, source, **given) + "\n" + body(text))
     except OSError as e:
         raise SystemExit(f"{path}: cannot write the results table: {e.strerror or e}") from None
     return path
