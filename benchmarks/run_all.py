@@ -5,7 +5,7 @@ benchmarks/README.md; each prints its table, and no table in docs/results/ is re
 
 ``make results`` (``--results``) runs every benchmark that backs a number in the docs at its full
 setting; each writes its table to docs/results/<name>.md (benchmarks/report.py). This takes about
-five to six hours on a quiet 2-core machine; ``--only NAME...`` runs some of them.
+four to five hours on a quiet 2-core machine (docs/reproduce.md); ``--only NAME...`` runs some.
 """
 
 from __future__ import annotations
@@ -34,9 +34,13 @@ RESULTS = {
     "exact_scale": ["exact_scale.py", "--settings", "paper,n6,t50,n8"],
     "exact_scale_fields": ["exact_scale.py", "--settings", "walls,f4,f8,f4t60,f12t100", "--networks", "4",
                            "--time-limit", "30"],
-    "exact_scale_frontier": ["exact_scale.py", "--settings", "n10,n12,n16,n8t60,n4t100",
-                             "--objectives", "mean-min-voi"],
-    "exact_scale_f30": ["exact_scale.py", "--settings", "f30"],
+    "exact_scale_frontier": ["exact_scale.py", "--settings", "n8,n10,n12,n16,n8t60,n4t100",
+                             "--objectives", "mean-min-voi", "--threads", "2"],
+    "exact_scale_f30": ["exact_scale.py", "--settings", "f30", "--threads", "2"],
+    **{f"exact_scale_ingredients_{name}": ["exact_scale.py", "--settings", "paper,n6", "--networks", "8",
+                                           "--time-limit", "60", *flags]
+       for name, flags in {"all": [], "no_tdma_pair": ["--no-tdma", "--no-pair"], "no_collapse": ["--no-collapse"],
+                           "no_bounding": ["--no-bounding"]}.items()},
     "planner": ["planner.py", "--settings", "paper,n6", "--networks", "10", "--seeds", "3"],
     "fleet_scale": ["fleet_scale.py", "--settings", "n3t10,n4t10,n4t20,n6t20", "--networks", "3",
                     "--time-limit", "30", "--seeds", "2", "--episodes", "200000"],
