@@ -26,8 +26,8 @@ LAYERS = [
      "voiopt.plan", "voiopt.simulate", "voiopt.result", "voiopt.generate", "voiopt.stop", "voiopt.progress"),
     ("voiopt.models",),
     ("voiopt.solvers",),
-    ("voiopt.env", "voiopt.pz_env", "voiopt.plots", "voiopt.experiments"),
-    ("voiopt.cli", "voiopt.cli_bench", "voiopt.__main__", "voiopt"),
+    ("voiopt.env", "voiopt.pz_env", "voiopt.plots", "voiopt.experiments", "voiopt.viewer"),
+    ("voiopt.cli", "voiopt.cli_bench", "voiopt.cli_view", "voiopt.__main__", "voiopt"),
 ]
 
 

@@ -17,6 +17,7 @@ from voiopt import _numba_start, fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file, dumps_json, read_json
 from voiopt.cli_bench import add_commands as add_bench_commands
+from voiopt.cli_view import add_commands as add_view_commands
 from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
@@ -267,8 +268,7 @@ def cmd_figures(args) -> int:
 
     files = make_figures(
         args.out, networks=args.networks, robot_networks=args.robot_networks, episodes=args.episodes,
-        time_limit=args.time_limit,
-        memory_limit=args.memory_limit,
+        time_limit=args.time_limit, memory_limit=args.memory_limit,
         seed=args.seed, seeds=args.seeds, reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
@@ -451,6 +451,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="(default: the shipped case study, instances/case-study.json)")
 
     add_bench_commands(sub, _command, _add_executor_options, _count)
+    add_view_commands(sub, _command)
     return p
 
 
