@@ -55,9 +55,9 @@ from voiopt.generate import generate as generate_network
 from voiopt.instance import Instance
 from voiopt.models import mdp as mdp_mod
 from voiopt.plan import Plan
+from voiopt.viewer import frames
 
 ENV_ID = "voiopt/VoICollection-v0"
-CELL = 24  # pixels per lattice point in rgb_array renders
 SAMPLE = dict(n_sensors=4, horizon=30, width=5.0, height=5.0)  # the paper's setting, for sampled networks
 REWARD_MODES = ("paper", "normalised")
 INFEASIBLE = ("raise", "penalise")
@@ -112,13 +112,13 @@ def _check_sample(sample: Any) -> dict:
 class VoIEnv(gym.Env):
     """The entity's slot-by-slot decision (upload, move) with the paper's reward."""
 
-    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+    metadata = {"render_modes": ["ansi", "rgb_array", "human"], "render_fps": 4}
 
     def __init__(self, instance: Instance | None = None, reward: str = "voi", render_mode: str | None = None,
                  penalty: float = mdp_mod.IDLE_PENALTY, reward_units: str = "bit/s", reward_mode: str = "paper",
                  infeasible: str = "raise", observe_sensors: bool = False, sample: dict | None = None):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise OptionError(f"render_mode: must be 'ansi' or 'rgb_array', got {render_mode!r}")
+            raise OptionError(f"render_mode: must be 'ansi', 'rgb_array' or 'human', got {render_mode!r}")
         if reward_mode not in REWARD_MODES:
             raise OptionError(f"reward_mode: must be 'paper' or 'normalised', got {reward_mode!r}")
         if reward_mode == "normalised" and reward != "voi":
@@ -129,6 +129,7 @@ class VoIEnv(gym.Env):
         if not isinstance(observe_sensors, (bool, np.bool_)):  # "no" would be true
             raise OptionError(f"observe_sensors: must be True or False, got {observe_sensors!r}")
         self.render_mode = render_mode
+        self._painter = self._window = None
         self.options = dict(reward=reward, penalty=penalty, reward_units=reward_units)
         self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
         if instance is not None and sample is not None:
@@ -323,6 +324,8 @@ class VoIEnv(gym.Env):
             return self._ansi()
         if self.render_mode == "rgb_array":
             return self._rgb()
+        if self.render_mode == "human":  # a window; where none can open, a warning once and nothing
+            self._human()
         return None
 
     def _ansi(self) -> str:
@@ -345,26 +348,30 @@ class VoIEnv(gym.Env):
         return "\n".join(rows) + "\n"
 
     def _rgb(self) -> np.ndarray:
-        lat, points = self.lattice, self._points()
-        img = np.full((lat.ny * CELL, lat.nx * CELL, 3), 255, dtype=np.uint8)
-        for q in range(lat.n_points):
-            k, l = lat.coords[q]
-            y0, x0 = (lat.ny - 1 - l) * CELL, k * CELL
-            color = (230, 230, 230)
-            if lat.in_range[:, q].any():
-                color = (170, 200, 255)
-            if lat.blocked[q]:
-                color = (80, 80, 80)
-            if q == lat.end:
-                color = (60, 170, 60)
-            if q in points:
-                color = (220, 40, 40)
-            img[y0 + 2: y0 + CELL - 2, x0 + 2: x0 + CELL - 2] = color
-        for s in self.instance.sensors:
-            x = int(round(s.position[0] / lat.step * CELL + CELL / 2))
-            y = int(round((lat.ny - 1 - s.position[1] / lat.step) * CELL + CELL / 2))
-            img[max(y - 3, 0): y + 3, max(x - 3, 0): x + 3] = (20, 60, 200)
-        return img
+        """The current slot as voiopt.viewer.frames draws it: a (H, W, 3) uint8 array of one
+        fixed shape (frames.SIZE_PX), whatever the instance."""
+        if self._painter is None or self._painter.instance is not self.instance:
+            self._painter = frames.Painter(self.instance, self.instance.name)
+        return self._painter.rgb(self._slot())
+
+    def _slot(self) -> frames.Slot:
+        """Slot t: each robot's points p(0..t), uploads u(0..t-1) (none yet in slot t), A_i(t), q_i(t)."""
+        _, aoi, qidx, *_ = self.state
+        inst, lat = self.instance, self.lattice
+        dist = [inst.initial_distance(i) if q == 0 else lat.distance[i, q - 1] for i, q in enumerate(qidx)]
+        paths, uploads = (self._positions, self._schedule) if inst.fleet else ([self._positions], [self._schedule])
+        return frames.from_points(inst, self.t, [[*path, p] for path, p in zip(paths, self._points(), strict=True)],
+                                  [[*up, -1] for up in uploads], aoi, dist)
+
+    def _human(self) -> None:
+        self._window = self._window or frames.Window(self.metadata["render_fps"])
+        self._window.show(self._rgb())
+
+    def close(self) -> None:
+        if getattr(self, "_window", None) is not None:
+            self._window.close()
+            self._window = None
+        super().close()
 
 
 MAX_JOINT_ACTIONS = 1 << 22  # the longest joint action mask a FleetVoIEnv offers

@@ -50,7 +50,7 @@ from voiopt.plan import FleetPlan, Plan
 class VoIParallelEnv(ParallelEnv):
     """One agent per robot over VoIEnv's joint decision; see the module's docstring."""
 
-    metadata = {"render_modes": ["ansi", "rgb_array"], "name": "voiopt_fleet_v0", "is_parallelizable": True}
+    metadata = {"render_modes": ["ansi", "rgb_array", "human"], "name": "voiopt_fleet_v0", "is_parallelizable": True}
 
     def __init__(self, instance: Instance, reward: str = "voi", render_mode: str | None = None,
                  penalty: float = mdp_mod.IDLE_PENALTY, reward_units: str = "bit/s", observe_sensors: bool = False):
