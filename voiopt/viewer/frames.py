@@ -88,12 +88,13 @@ class Painter:
     def _layout(self) -> None:
         """The fixed picture, drawn once: area, blocked points, ranges, starts, docks, sensors;
         and the artists each slot updates (paths, uploads, robots, sensor colours, title)."""
+        from matplotlib.collections import PatchCollection
         from matplotlib.patches import Circle, Rectangle
 
         ax, inst, st = self.ax, self.instance, self.instance.step
         ax.add_patch(Rectangle((0, 0), inst.width, inst.height, facecolor="#fbfcfe", edgecolor="#c5ccd8", zorder=0))
-        for x, y in inst.blocked:
-            ax.add_patch(Rectangle((x - st / 2, y - st / 2), st, st, color="#4a5160", zorder=1))
+        ax.add_collection(PatchCollection([Rectangle((x - st / 2, y - st / 2), st, st) for x, y in inst.blocked],
+                                          facecolor="#4a5160", edgecolor="none", zorder=1))
         fleet = inst.n_robots > 1
         for k, r in enumerate(inst.robots):
             c = ROBOT_COLOURS[k % len(ROBOT_COLOURS)] if fleet else "#1d2330"
@@ -101,8 +102,9 @@ class Painter:
             if r.end is not None:
                 ax.scatter(*r.end, marker="D", s=90, facecolor="none", edgecolor=c if fleet else "#1f7a44", lw=1.6, zorder=2)
         xy = np.array([s.position for s in inst.sensors], dtype=float)
+        ax.add_collection(PatchCollection([Circle(s.position, inst.channel.d_th) for s in inst.sensors], facecolor="none",
+                                          edgecolor="#9aa6b8", linestyle=":", linewidth=0.8, zorder=1))
         for i, s in enumerate(inst.sensors):
-            ax.add_patch(Circle(s.position, inst.channel.d_th, fill=False, ls=":", lw=0.8, color="#9aa6b8", zorder=1))
             if inst.n_sensors <= 12:
                 ax.annotate(f"s{i}", s.position, xytext=(4, 4), textcoords="offset points", fontsize=7, zorder=6)
         self.sensors = ax.scatter(xy[:, 0], xy[:, 1], s=70, edgecolor="white", lw=1.0, zorder=5)

@@ -11,7 +11,7 @@
     voi: r.voi.map((row) => row.map(num)),
     value: num(r.value), bound: num(r.bound), gap: num(r.gap),
   }));
-  const NS = "http://www.w3.org/2000/svg";
+  const NS = document.getElementById("svg-namespace").namespaceURI; // the page names no URL, not even this one
   const ROBOT = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#17becf"];
   const SENSOR = ["#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#edc948", "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac"];
   const VIRIDIS = ["#440154", "#482878", "#3e4989", "#31688e", "#26828e", "#1f9e89", "#35b779", "#6ece58", "#b5de2b", "#fde725"];
@@ -237,9 +237,8 @@
   function buildScale(holder) {
     holder.append("sensor colour: V_i(t), bit/s ");
     const svg = el("svg", { width: 272, height: 26, viewBox: "-6 0 272 26", style: "vertical-align: middle" }, holder);
-    const grad = el("linearGradient", { id: "voi-scale" }, el("defs", {}, svg));
-    VIRIDIS.forEach((c, i) => el("stop", { offset: i / (VIRIDIS.length - 1), "stop-color": c }, grad));
-    el("rect", { x: 6, y: 2, width: 248, height: 10, fill: "url(#voi-scale)", rx: 2 }, svg);
+    const bands = 62; // the colour bar as bands: no gradient reference, the page names nothing outside itself
+    for (let b = 0; b < bands; b++) el("rect", { x: 6 + 248 * b / bands, y: 2, width: 248 / bands + 0.4, height: 10, fill: viridis(b / (bands - 1)) }, svg);
     for (const v of niceLogTicks(LOG_LO, LOG_HI)) {
       const x = 6 + 248 * (Math.log10(v) - LOG_LO) / (LOG_HI - LOG_LO);
       el("text", { x, y: 24, "font-size": 9, "text-anchor": "middle", fill: "#5b6475" }, svg, "1e" + Math.round(Math.log10(v)));
