@@ -98,6 +98,19 @@ def test_results_side_by_side_and_gap_labels(capsys, tmp_path):
     assert rs[0]["value"] == dp.value and rs[0]["status"] == dp.status
 
 
+def test_a_monte_carlo_value_is_labelled_with_its_interval_and_samples(capsys, tmp_path):
+    """MODEL.md section 11's fields are carried to the page as the result states them."""
+    inst = voiopt.load(CASE)
+    _save(tmp_path, inst, "shortest-path", "sp.json")
+    raw = json.loads((tmp_path / "sp.json").read_text())
+    raw.update(evaluation="monte-carlo", samples=500, value_ci=[raw["value"] * 0.9, raw["value"] * 1.1])
+    (tmp_path / "mc.json").write_text(json.dumps(raw))
+    assert run(capsys, "show", tmp_path / "mc.json", "--instance", CASE, "-o", tmp_path / "p.html")[0] == 0
+    (r,) = embedded((tmp_path / "p.html").read_text())["results"]
+    assert (r["evaluation"], r["samples"], r["valueCi"]) == ("monte-carlo", 500, raw["value_ci"])
+    assert r["run"] is None  # a lossless instance: nothing sampled
+
+
 def test_a_result_text_cannot_end_the_script():
     """A result's method is any string: "</script>" in it does not end the page's data."""
     bad = "</script><script>alert(1)</script>"

@@ -83,13 +83,23 @@
     const facts = html("p", "facts", card);
     const fact = (k, v) => { const s = html("span", "", facts); html("b", "", s, k + " "); s.append(v); return s; };
     const sim = r.simulated[r.objective];
-    fact(r.objective, r.evaluation === "monte-carlo" ? fmt(r.value, 6) + " (Monte Carlo)" : fmt(sim, 6));
+    if (r.evaluation) { // lossy links: the expected objective, exact or estimated, and this run's own value
+      fact(r.objective, fmt(r.value, 6) + (r.evaluation === "exact" ? " (exact expectation)" : " (Monte Carlo estimate" +
+        (r.valueCi ? `, 95 % CI [${fmt(num(r.valueCi[0]), 6)}, ${fmt(num(r.valueCi[1]), 6)}]` : "") +
+        (r.samples ? `, ${r.samples} samples` : "") + ")"));
+      if (r.run) fact("this run", fmt(sim, 6));
+    } else {
+      fact(r.objective, fmt(r.run ? r.value : sim, 6));
+    }
     if (r.status) {
       fact("bound", r.bound === null ? "none" : fmt(r.bound, 6) + (r.boundKind ? ` (${r.boundKind})` : ""));
       const g = fact("gap", r.gap === null ? "none" : r.gapText);
       if (r.gap !== null) { g.append(" "); html("span", "badge " + r.gapKind, g, r.gapKind); }
     }
-    if (r.run) fact("sampled run", `seed ${r.run.seed}, failed uploads marked \u00d7`);
+    if (r.run) {
+      const failures = r.run.failed.flat().filter(Boolean).length;
+      fact("sampled run", `seed ${r.run.seed}, ${failures} failed upload${failures === 1 ? "" : "s"} marked \u00d7`);
+    }
     const body = html("div", "body", card);
     const map = buildMap(html("div", "map", body), r, j);
     const side = html("div", "side", body);

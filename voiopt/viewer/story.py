@@ -13,13 +13,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from voiopt._files import read_json
 from voiopt.errors import OptionError, PlanError, VoioptError
 from voiopt.instance import Instance, show
 from voiopt.objectives import DEFAULT, OBJECTIVES, show_gap
 from voiopt.plan import FleetPlan, Plan, made_for, plan_of
 from voiopt.result import Result, disagreement
-from voiopt.simulate import Trajectory, simulate
+from voiopt.simulate import Trajectory, check_plan, simulate
 
 STATISTICAL_BOUNDS = ("information-relaxation",)  # MODEL.md section 11: a bound estimated from samples
 
@@ -37,7 +39,9 @@ class Entry:
     bound: float | None = None
     gap: float | None = None
     bound_kind: str | None = None
-    evaluation: str | None = None
+    evaluation: str | None = None  # lossy links: "exact" or "monte-carlo" (with samples and value_ci)
+    samples: int | None = None
+    value_ci: tuple[float, float] | None = None
 
     @property
     def gap_kind(self) -> str:
@@ -57,10 +61,12 @@ def read_entry(path: str | os.PathLike) -> tuple[Entry, str | None]:
             raise VoioptError(f"{name}: {e}") from None
         if result.plan is None:
             raise OptionError(f"{name}: the result has no plan to show (status {result.status})")
-        kind = d.get("bound_kind")
+        text = lambda key: d.get(key) if isinstance(d.get(key), str) else None  # noqa: E731
+        ci = d.get("value_ci") if isinstance(d.get("value_ci"), list) and len(d["value_ci"]) == 2 else None
+        samples = d.get("samples") if isinstance(d.get("samples"), int) else None
         return Entry(Path(name).name, result.plan, result.objective, result.method, result.status, result.value,
-                     result.bound, result.gap, kind if isinstance(kind, str) else None,
-                     d.get("evaluation") if isinstance(d.get("evaluation"), str) else None), result.instance
+                     result.bound, result.gap, text("bound_kind"), text("evaluation"), samples,
+                     None if ci is None else (float(ci[0]), float(ci[1]))), result.instance
     plan = plan_of(d, name)  # a plan, or a plan with instance and objective (a VoI-Lib submission)
     objective = d.get("objective", DEFAULT) if isinstance(d, dict) else DEFAULT
     if objective not in OBJECTIVES:
@@ -97,35 +103,49 @@ def _rows(a) -> list:
     return [[_number(x) for x in row] for row in a.tolist()]
 
 
-def sampled_run(instance: Instance, entry: Entry, seed: int) -> dict | None:
-    """The hook for lossy links (MODEL.md section 11): one sampled run of the plan, with its
-    seed and each robot's failed uploads. Without ``links`` every upload succeeds and there is
-    nothing to sample (None). The links model is not part of this version of voiopt, so an
-    instance with links is refused here rather than shown as if lossless."""
+def sampled_run(instance: Instance, plan: Plan | FleetPlan, seed: int) -> tuple[Plan | FleetPlan, dict] | None:
+    """Lossy links (MODEL.md section 11): one sampled run of the plan, as the lossless plan it
+    becomes (each failed upload unscheduled, which the simulator then values) and the page's
+    ``run``: its seed and, per robot and slot, whether a scheduled upload failed. The outcomes
+    are scenario 0 of ``voiopt.core.scenarios.sample_scenarios(instance, 1, seed)`` (coupled
+    uniforms U(t, i)). Without ``links`` every upload succeeds: None, and nothing is drawn."""
     if getattr(instance, "links", None) is None:
         return None
-    raise OptionError(f"{instance.name}: links: lossy links are not shown by this version of voiopt show")
+    try:
+        from voiopt.core import scenarios
+    except ImportError:  # an instance with links but no scenario sampler: refuse rather than draw it lossless
+        raise OptionError(f"{instance.name}: links: this voiopt cannot sample lossy runs") from None
+    idx, sched = check_plan(instance, plan)
+    ok = scenarios.successes(instance, idx, sched, scenarios.sample_scenarios(instance, 1, seed)[0])
+    failed = (np.atleast_2d(sched) >= 0) & ~np.atleast_2d(ok)
+    return Plan.from_indices(instance, idx, np.where(ok, sched, -1)), {"seed": seed, "failed": failed.tolist()}
 
 
 def story(instance: Instance, entries: list[Entry], where: str = "the instance", seed: int = 0) -> dict[str, Any]:
     """The page's data: the instance (area, blocked points, robots' starts and ends, sensors)
     and per entry its header and its simulated story: p_k(t) for t = 0..T-1, u_k(t) (-1: none),
-    A_i(t) and V_i(t) for t = 0..T (row t: before slot t's upload takes effect)."""
+    A_i(t) and V_i(t) for t = 0..T (row t: before slot t's upload takes effect). Under lossy
+    links (``sampled_run``) the ages and values are those of one sampled run, seeded by ``seed``,
+    and ``simulated`` holds that run's metrics, not the plan's expected ones."""
     T = instance.horizon
     out = []
     for e in entries:
         traj = trajectory(instance, e, where)
         robots = e.plan.robots
+        sampled = sampled_run(instance, e.plan, seed)
+        if sampled is not None:  # the run's ages and values: the plan with its failed uploads unscheduled
+            traj = simulate(instance, sampled[0])
         out.append({
             "label": e.label, "method": e.method, "objective": e.objective, "status": e.status,
             "value": _number(e.value), "bound": _number(e.bound), "gap": _number(e.gap),
             "gapText": show_gap(e.gap), "gapKind": e.gap_kind, "boundKind": e.bound_kind, "evaluation": e.evaluation,
+            "samples": e.samples, "valueCi": None if e.value_ci is None else [_number(v) for v in e.value_ci],
             "simulated": {k: _number(v) for k, v in traj.metrics.items()},
             "x": [[_number(x) for x, _ in r.positions] for r in robots],
             "y": [[_number(y) for _, y in r.positions] for r in robots],
             "u": [[-1 if u is None else int(u) for u in r.schedule] for r in robots],
             "aoi": traj.aoi.tolist(), "voi": _rows(traj.voi),
-            "run": sampled_run(instance, e, seed),
+            "run": None if sampled is None else sampled[1],
         })
     return {
         "instance": {
