@@ -101,7 +101,11 @@
       fact("sampled run", `seed ${r.run.seed}, ${failures} failed upload${failures === 1 ? "" : "s"} marked \u00d7`);
     }
     const body = html("div", "body", card);
-    const map = buildMap(html("div", "map", body), r, j);
+    const mapBox = html("div", "map", body);
+    const map = buildMap(mapBox, r, j);
+    html("p", "legend", mapBox, "\u25a1 start \u00b7 \u25c7 end (dock) \u00b7 \u25cf red: upload \u00b7 dashed red: uploading now" +
+      (inst.blocked.length ? " \u00b7 \u25a0 blocked" : "") + (r.run ? " \u00b7 \u00d7 failed upload" : "") +
+      " \u00b7 dashed circle: range d_th");
     const side = html("div", "side", body);
     html("h3", "", side, "VoI V_i(t), bit/s, log scale \u00b7 black: least VoI");
     const voiChart = buildChart(side, r.voi, true, (t) => Math.min(...r.voi[t]));
@@ -126,7 +130,8 @@
 
   // ---------------------------------------------------------------- the map
   function buildMap(holder, r, j) {
-    const pad = 0.6, W = inst.width + 2 * pad, H = inst.height + 2 * pad;
+    const pad = Math.max(0.6 * inst.step, Math.min(inst.d_th + 0.15, 0.35 * Math.max(inst.width, inst.height)));
+    const W = inst.width + 2 * pad, H = inst.height + 2 * pad;
     const S = 460 / Math.max(W, H);
     const X = (x) => (x + pad) * S, Y = (y) => (inst.height + pad - y) * S;
     const svg = el("svg", { viewBox: `0 0 ${W * S} ${H * S}`, role: "img", "aria-label": "area, sensors and paths" }, holder);
