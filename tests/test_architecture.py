@@ -23,7 +23,7 @@ MODULES = {
 # the layers, bottom up; a module may import its own layer and those below it
 LAYERS = [
     ("voiopt.errors", "voiopt._files", "voiopt._grid", "voiopt._checker", "voiopt._places", "voiopt._numba_start", "voiopt._jit", "voiopt._libm", "voiopt._prefault", "voiopt.joint", "voiopt.objectives", "voiopt.instance", "voiopt.fields", "voiopt.physics", "voiopt.lattice",
-     "voiopt.plan", "voiopt.simulate", "voiopt.result", "voiopt.generate", "voiopt.stop", "voiopt.progress"),
+     "voiopt.plan", "voiopt.simulate", "voiopt.result", "voiopt.generate", "voiopt.stop", "voiopt.progress", "voiopt.core"),
     ("voiopt.models",),
     ("voiopt.solvers",),
     ("voiopt.env", "voiopt.pz_env", "voiopt.plots", "voiopt.experiments", "voiopt.viewer"),
