@@ -29,7 +29,10 @@ CASES = tiny_instances(8) + field_instances(8) + fleet_instances(6)
 
 
 def run(capsys, *argv):
-    code = main([str(a) for a in argv])
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as e:  # argparse's own errors: one line, exit 2
+        code = e.code
     captured = capsys.readouterr()
     return code, captured.out, captured.err
 
@@ -142,10 +145,17 @@ def test_bad_input_is_one_line_and_exit_2(capsys, tmp_path):
         ((CASE,), "an instance, not a plan"),
         ((tmp_path / "cs.json", "--instance", CASE, "-o", tmp_path / "no" / "p.html"), "does not exist"),
     ]
+    cases.append(((tmp_path / "cs.json", "--instance", CASE, "--seed", "-1"), "--seed: must be an integer >= 0"))
     for argv, message in cases:
         code, _, err = run(capsys, "show", *argv)
         assert code == 2 and message in one_line_error(err), (argv, err)
     assert not list(tmp_path.glob("*.html"))
+
+
+def test_the_default_page_is_named_after_the_first_file(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, out, _ = run(capsys, "show", CASE_PLAN, "--instance", CASE)
+    assert code == 0 and (tmp_path / "case-study.plan.html").is_file() and "case-study.plan.html" in out
 
 
 def test_animate_writes_a_gif_of_t_frames(capsys, tmp_path):

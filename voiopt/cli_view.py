@@ -10,6 +10,18 @@ from voiopt._files import check_output_file
 out = Console(highlight=False, soft_wrap=True)
 
 
+def _seed(text: str) -> int:
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
 def cmd_show(args) -> int:
     from voiopt.viewer.show import default_output, run
 
@@ -43,7 +55,7 @@ def add_commands(sub, command) -> None:
                         "or in ./instances")
     s.add_argument("-o", "--output", default=None, metavar="HTML",
                    help="the page to write (default: the first file's name with .html, in this folder)")
-    s.add_argument("--seed", type=int, default=0, metavar="S",
+    s.add_argument("--seed", type=_seed, default=0, metavar="S",
                    help="lossy links: the seed of the sampled run shown (default 0)")
 
     plot = sub.choices["plot"]
