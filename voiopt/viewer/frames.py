@@ -193,6 +193,7 @@ class Window:
             return "no display (DISPLAY and WAYLAND_DISPLAY are not set)"
         import matplotlib.pyplot as plt
 
+        why = []
         for backend in GUI_BACKENDS:
             try:
                 plt.switch_backend(backend)
@@ -200,8 +201,9 @@ class Window:
                 self.figure.add_axes((0, 0, 1, 1)).set_axis_off()
                 return None
             except Exception as e:  # any toolkit may fail its own way (no Tk, no Qt, display refused)
-                last = f"{backend}: {e}".splitlines()[0]
-        return f"no GUI toolkit for matplotlib ({last})"
+                why.append(f"{backend}: {e}".splitlines()[0][:120])
+        plt.switch_backend("Agg")
+        return f"no GUI toolkit for matplotlib ({why[0]}; and {len(why) - 1} more)"
 
     def show(self, rgb: np.ndarray) -> None:
         import warnings
