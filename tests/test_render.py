@@ -51,7 +51,7 @@ def test_frame_shows_what_the_state_holds(case_study):
     row T of its plan."""
     env = voienv.VoIEnv(case_study, render_mode="rgb_array")
     _episode(env)
-    slot = env._slot()
+    slot = env.current_slot()
     traj = voiopt.simulate(case_study, env.plan())
     assert slot.t == case_study.horizon
     np.testing.assert_array_equal(slot.voi, traj.voi[-1])

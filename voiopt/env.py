@@ -352,10 +352,10 @@ class VoIEnv(gym.Env):
         fixed shape (frames.SIZE_PX), whatever the instance."""
         if self._painter is None or self._painter.instance is not self.instance:
             self._painter = frames.Painter(self.instance, self.instance.name)
-        return self._painter.rgb(self._slot())
+        return self._painter.rgb(self.current_slot())
 
-    def _slot(self) -> frames.Slot:
-        """Slot t: each robot's points p(0..t), uploads u(0..t-1) (none yet in slot t), A_i(t), q_i(t)."""
+    def current_slot(self) -> frames.Slot:
+        """What render() draws: slot t, each robot's points p(0..t) and uploads u(0..t-1), and V_i(t), A_i(t)."""
         _, aoi, qidx, *_ = self.state
         inst, lat = self.instance, self.lattice
         dist = [inst.initial_distance(i) if q == 0 else lat.distance[i, q - 1] for i, q in enumerate(qidx)]
