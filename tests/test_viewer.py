@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 from oracles import model_oracle as oracle
 
 import voiopt
-from voiopt.cli import main
-from voiopt.plan import Plan
+from voiopt.cli.main import main
+from voiopt.core.plan import Plan
 from voiopt.viewer import page
 from voiopt.viewer.story import Entry, story
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import voiopt
-from voiopt.cli import main
+from voiopt.cli.main import main
 
 ROOT = Path(__file__).resolve().parent.parent
 CHROMIUM = os.environ.get("VOIOPT_CHROMIUM", "/usr/bin/chromium")
@@ -56,7 +56,7 @@ def browser():
 
 
 def reference(inst: voiopt.Instance, plan) -> list[dict]:
-    """Per slot t = 0..T-1: p_k(t), A_i(t), V_i(t), from MODEL.md alone (not voiopt.simulate)."""
+    """Per slot t = 0..T-1: p_k(t), A_i(t), V_i(t), from MODEL.md alone (not voiopt.core.simulate)."""
     ch = inst.channel
     g0, n0, B = 10 ** (ch.g0_db / 10), 10 ** (ch.noise_dbm_per_hz / 10) / 1000, ch.bandwidth_hz
     aoi = [s.initial_aoi for s in inst.sensors]

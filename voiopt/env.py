@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from voiopt.errors import MissingExtraError, OptionError
+from voiopt.objectives import Worth
 
 try:
     import gymnasium as gym
@@ -49,12 +50,13 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the installed extras
     raise MissingExtraError("gymnasium", "rl") from e
 
-from voiopt import instance as instance_mod
-from voiopt import lattice as lattice_mod
-from voiopt.generate import generate as generate_network
-from voiopt.instance import Instance
-from voiopt.models import mdp as mdp_mod
-from voiopt.plan import Plan
+from voiopt.core import instance as instance_mod
+from voiopt.core.instance import Instance
+from voiopt.core.plan import Plan
+from voiopt.grid import lattice as lattice_mod
+from voiopt.mdp import robot as mdp_mod
+from voiopt.networks.generate import generate as generate_network
+from voiopt.runtime.status import Status
 from voiopt.viewer import frames
 
 ENV_ID = "voiopt/VoICollection-v0"
@@ -67,7 +69,7 @@ _OPTIMA: dict[Instance, float] = {}  # the normalising optimum of each instance 
 def _check_normalisable(instance: Instance) -> None:
     """The normalised reward divides by a proven optimum: an instance whose VoI-Lib certificate
     is still open has none (dp would search for it without end), so it is refused up front."""
-    from voiopt.experiments import voilib
+    from voiopt.voilib import library as voilib
 
     interval = voilib.open_certificate(instance, "mean-min-voi")
     if interval is not None:
@@ -94,12 +96,12 @@ def reset_options(options: Any) -> dict:
 
 
 def _check_sample(sample: Any) -> dict:
-    """The keyword arguments of voiopt.generate for sampled networks (without ``seed``)."""
+    """The keyword arguments of voiopt.networks.generate for sampled networks (without ``seed``)."""
     if sample is None:
         return {}
     allowed = [k for k in inspect.signature(generate_network).parameters if k != "seed"]
     if not isinstance(sample, dict):
-        raise OptionError(f"sample: must be a dict of voiopt.generate's arguments, got {sample!r}")
+        raise OptionError(f"sample: must be a dict of voiopt.networks.generate's arguments, got {sample!r}")
     unknown = [k for k in sample if k not in allowed]
     if unknown:
         raise OptionError(f"sample: unknown key {unknown[0]!r} (allowed: {', '.join(allowed)})")
@@ -121,7 +123,7 @@ class VoIEnv(gym.Env):
             raise OptionError(f"render_mode: must be 'ansi', 'rgb_array' or 'human', got {render_mode!r}")
         if reward_mode not in REWARD_MODES:
             raise OptionError(f"reward_mode: must be 'paper' or 'normalised', got {reward_mode!r}")
-        if reward_mode == "normalised" and reward != "voi":
+        if reward_mode == "normalised" and reward != Worth.VOI:
             raise OptionError(f"reward_mode: 'normalised' divides the VoI reward by the mean-min-voi optimum; "
                               f"with reward={reward!r} use reward_mode='paper'")
         if infeasible not in INFEASIBLE:
@@ -185,14 +187,14 @@ class VoIEnv(gym.Env):
     def optimum(self) -> float:
         """The certified mean-min-voi optimum that normalises the reward (once per instance)."""
         if self._optimum is None:
-            from voiopt.experiments import voilib
-            from voiopt.solvers import dp
+            from voiopt.solvers.dp.solver import solver as dp
+            from voiopt.voilib import library as voilib
 
             if self.instance not in _OPTIMA:
                 cert = voilib.certified(self.instance, "mean-min-voi")
                 if cert is None:
                     result = dp.solve(self.instance, "mean-min-voi", progress=True)
-                    if result.status != "optimal":
+                    if result.status != Status.OPTIMAL:
                         raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and dp stopped on "
                                           f"{self.instance.name} ({result.status}); use 'paper'")
                     cert = result.value
@@ -394,7 +396,7 @@ class FleetVoIEnv(VoIEnv):
             raise OptionError("reward_mode: a fleet has no certified optimum to normalise by; use 'paper'")
 
     def _load(self, instance: Instance) -> None:
-        from voiopt.models import fleet_mdp
+        from voiopt.mdp import fleet as fleet_mdp
 
         N, K = instance.n_sensors, instance.n_robots
         A = (N + 1) * 5

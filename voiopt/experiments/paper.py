@@ -14,8 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from voiopt import instance as instance_mod
-from voiopt._files import atomic_write, check_output_dir, read_csv, safe_name, write_csv
+from voiopt.core import instance as instance_mod
+from voiopt.core.instance import Instance
+from voiopt.core.result import Result, load_result
+from voiopt.experiments.plots import SCHEMES, case_study_figures, plot_sweep
 from voiopt.experiments.runner import (
     check_manifest,
     count_option,
@@ -24,12 +26,11 @@ from voiopt.experiments.runner import (
     run_options,
     run_tasks,
 )
-from voiopt.generate import case_study, generate_set, write_set
-from voiopt.instance import Instance
+from voiopt.networks.generate import case_study, generate_set, write_set
 from voiopt.objectives import DEFAULT as OBJECTIVE
 from voiopt.objectives import OBJECTIVES
-from voiopt.plots import SCHEMES, case_study_figures, plot_sweep
-from voiopt.result import Result, load_result
+from voiopt.runtime.files import atomic_write, check_output_dir, read_csv, safe_name, write_csv
+from voiopt.runtime.status import Status
 from voiopt.solvers import RANDOMISED
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
@@ -96,8 +97,8 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
                 "seed_max": max(seed_means) if seed_means else None,
                 "ci95": ci95(per_network),
                 "mean_bound": statistics.fmean(bounds) if m == "dp" and bounds and not any(map(math.isnan, bounds)) else None,
-                "certified": sum(r.status == "optimal" for _, r in runs) if m == "dp" else None,
-                "errors": sum(r.status == "error" for _, r in runs),
+                "certified": sum(r.status == Status.OPTIMAL for _, r in runs) if m == "dp" else None,
+                "errors": sum(r.status == Status.ERROR for _, r in runs),
             })
     return rows
 
@@ -246,8 +247,8 @@ def _robots_figure(insts, tasks, networks: int, seed: int, seeds: int, reward_un
     """Fig. 8: each method and the certified optimum against the number of robots. Per network
     the optimum's value is the best exact plan and its bound the tightest proven bound of dp
     and milp; a network is certified when they meet (relative 1e-6)."""
+    from voiopt.experiments.plots import plot_robots
     from voiopt.objectives import gap
-    from voiopt.plots import plot_robots
 
     rows = []
     for v in ROBOTS.values:
@@ -277,8 +278,8 @@ def _robots_figure(insts, tasks, networks: int, seed: int, seeds: int, reward_un
                          "mean": statistics.fmean(seed_means) if seed_means else None,
                          "seed_min": min(seed_means) if seed_means else None,
                          "seed_max": max(seed_means) if seed_means else None, "ci95": None,
-                         "mean_bound": None, "certified": sum(r.status == "optimal" for _, r, _ in runs),
-                         "errors": sum(r.status == "error" for _, r, _ in runs)})
+                         "mean_bound": None, "certified": sum(r.status == Status.OPTIMAL for _, r, _ in runs),
+                         "errors": sum(r.status == Status.ERROR for _, r, _ in runs)})
     key = ROBOTS.key
     csv_path = out / f"{key}.csv"
     write_csv(csv_path, rows, ["x", "method", "networks", "seeds", "mean", "seed_min", "seed_max", "ci95",

@@ -8,10 +8,10 @@ import os
 import shutil
 from pathlib import Path
 
-from voiopt._files import atomic_path
+from voiopt.core.instance import Instance
 from voiopt.errors import OptionError
-from voiopt.instance import Instance
-from voiopt.progress import progress_bar
+from voiopt.runtime.files import atomic_path
+from voiopt.runtime.progress import progress_bar
 from voiopt.viewer.frames import DPI, Painter, slots_of
 from voiopt.viewer.story import Entry, trajectory
 

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from voiopt import physics
-from voiopt.instance import Instance
+from voiopt.core import physics
+from voiopt.core.instance import Instance
 
 ROBOT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#17becf")
 UPLOAD = "#d62728"
@@ -148,8 +148,8 @@ class Painter:
 
 
 def slots_of(trajectory, instance: Instance):
-    """The Slots t = 0..T-1 of a simulated trajectory (voiopt.simulate.Trajectory)."""
-    from voiopt import lattice
+    """The Slots t = 0..T-1 of a simulated trajectory (voiopt.core.simulate.Trajectory)."""
+    from voiopt.grid import lattice
 
     pts = lattice.build(instance).points
     idx, sched = np.atleast_2d(trajectory.positions), np.atleast_2d(trajectory.schedule)
@@ -163,7 +163,7 @@ def slots_of(trajectory, instance: Instance):
 def from_points(instance: Instance, t: int, points, uploads, aoi, dist) -> Slot:
     """The Slot t of lattice point indices (per robot, p_k(0..t)), uploads (per robot, -1: none)
     and the state's A_i(t), q_i(t): V_i(t) is physics.voi of them, as the simulator's."""
-    from voiopt import lattice
+    from voiopt.grid import lattice
 
     pts = lattice.build(instance).points
     voi = physics.voi(np.asarray(aoi, dtype=np.int64), np.asarray(dist, dtype=float),

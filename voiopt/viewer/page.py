@@ -9,7 +9,7 @@ import os
 from importlib import resources
 from typing import Any
 
-from voiopt._files import atomic_write
+from voiopt.runtime.files import atomic_write
 
 
 def _asset(name: str) -> str:

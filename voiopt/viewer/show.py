@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from voiopt.core.instance import Instance, show
 from voiopt.errors import OptionError
-from voiopt.instance import Instance, show
 from voiopt.viewer import page
 from voiopt.viewer.story import Entry, read_entry, story
 
@@ -20,7 +20,7 @@ def gather(paths: list[str], instance_path: str | None = None) -> tuple[Instance
     """The instance and an Entry per file. Every file must be for one instance: results on
     different instances are refused (one line naming both), as is a plan that names none
     when no --instance is given."""
-    from voiopt.plots import instance_for
+    from voiopt.experiments.plots import instance_for
 
     entries, names = [], []
     for p in paths:

@@ -1,6 +1,6 @@
 """The story of a plan: what the viewer (``voiopt show``) and the animation show, slot by slot.
 
-Every number is the simulator's (``voiopt.simulate.simulate``) of the plan: a result's own
+Every number is the simulator's (``voiopt.core.simulate.simulate``) of the plan: a result's own
 metrics are checked against it, never drawn. One ``Entry`` per result or plan file; ``story``
 turns entries on one instance into the compact JSON the page embeds.
 """
@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from voiopt._files import read_json
+from voiopt.core.instance import Instance, show
+from voiopt.core.plan import FleetPlan, Plan, made_for, plan_of
+from voiopt.core.result import Result, disagreement
+from voiopt.core.simulate import Trajectory, check_plan, simulate
 from voiopt.errors import OptionError, PlanError, VoioptError
-from voiopt.instance import Instance, show
 from voiopt.objectives import DEFAULT, OBJECTIVES, show_gap
-from voiopt.plan import FleetPlan, Plan, made_for, plan_of
-from voiopt.result import Result, disagreement
-from voiopt.simulate import Trajectory, check_plan, simulate
+from voiopt.runtime.files import read_json
 
 STATISTICAL_BOUNDS = ("information-relaxation",)  # MODEL.md section 11: a bound estimated from samples
 

@@ -5,11 +5,15 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from voiopt import joint
-from voiopt import lattice as lattice_mod
+from voiopt import objectives
+from voiopt.core.instance import Instance
+from voiopt.core.plan import Plan
+from voiopt.core.result import Result
+from voiopt.core.simulate import simulate_indices
 from voiopt.errors import (
     MemoryLimitError,
     OptionError,
@@ -17,20 +21,19 @@ from voiopt.errors import (
     check_seed,
     check_stream_seeds,
 )
-from voiopt.instance import Instance
-from voiopt.models import fleet_mdp
-from voiopt.models import mdp as mdp_mod
-from voiopt.objectives import AOI_DEFAULT, DEFAULT, check_objective
-from voiopt.plan import Plan
-from voiopt.progress import progress_bar, text_column
-from voiopt.result import Result
-from voiopt.simulate import simulate_indices
-from voiopt.solvers import base
-from voiopt.solvers.qlearning import _fleet
-from voiopt.solvers.qlearning._kernels import rollout, train
-from voiopt.solvers.qlearning._qtable import QTable
-from voiopt.solvers.qlearning._rng import seed_state
-from voiopt.stop import MEMORY_LIMIT, Stopped, watch
+from voiopt.grid import joint
+from voiopt.grid import lattice as lattice_mod
+from voiopt.mdp import fleet as fleet_mdp
+from voiopt.mdp import robot as mdp_mod
+from voiopt.objectives import AOI_DEFAULT, DEFAULT
+from voiopt.runtime.progress import progress_bar, text_column
+from voiopt.runtime.status import Status
+from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
+from voiopt.solvers import base, options
+from voiopt.solvers.qlearning import fleet as fleet_kernels
+from voiopt.solvers.qlearning.kernels import rollout, train
+from voiopt.solvers.qlearning.rng import seed_state
+from voiopt.solvers.qlearning.table import QTable
 
 BETA, GAMMA, EPISODES = 0.75, 0.9, 1_000_000
 # steps (episodes x T) of the kernel's first call, and the fewest and most of any call; the stop
@@ -46,8 +49,8 @@ def warm_up(fleet: bool = False) -> float:
     are loaded: each costs start-up. The kernels' argument types do not depend on the instance."""
 
     def load():
-        from voiopt.generate import generate
-        from voiopt.instance import from_dict
+        from voiopt.core.instance import from_dict
+        from voiopt.networks.generate import generate
 
         tiny = generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up")
         if fleet:
@@ -55,8 +58,8 @@ def warm_up(fleet: bool = False) -> float:
             del tiny["start"]
             model = fleet_mdp.build(from_dict({**tiny, "robots": [{"start": [0, 0]}, {"start": [1, 1], "end": [1, 0]}]}))
             table = QTable(model, 0.0, 64 * 2**20, slots=16)
-            _fleet.train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
-            _fleet.rollout(model, table)
+            fleet_kernels.train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
+            fleet_kernels.rollout(model, table)
         else:
             model = mdp_mod.build(tiny)
             table = QTable(model, 0.0, 64 * 2**20)
@@ -90,7 +93,7 @@ def _require_fleet_memory(instance: Instance, memory_limit: float) -> None:
     """Refuse, in one line and before allocating, a fleet whose joint Q-table cannot be held:
     a joint row longer than a table row may be (16-bit greedy action), or the joint mask, the
     reward table and a first table with one episode's rows over ``memory_limit``."""
-    size = fleet_mdp.sizes(instance, _fleet.FLEET_SLOTS)
+    size = fleet_mdp.sizes(instance, fleet_kernels.FLEET_SLOTS)
     K, J, n = instance.n_robots, int(size["joint_actions"]), lattice_mod.n_points(instance)
     what = (f"{K} robots, up to {size['per_robot_actions']}^{K} = {J} joint actions a state, "
             f"{n}^{K} = {int(size['joint_points'])} joint points, T = {instance.horizon}")
@@ -106,7 +109,7 @@ METHOD_OF_REWARD = {"voi": "qlearning", "aoi": "aoi-qlearning"}
 def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
          episodes: int, seed: int, beta: float, gamma: float, q_init: float, penalty: float,
          time_limit: float | None, memory_limit: float, slot_in_state: bool, reward_units: str) -> Result:
-    check_objective(objective)
+    objective = objectives.get(objective)
     _check_options(episodes, seed, beta, gamma, q_init, penalty)
     check_seed(seed)
     check_stream_seeds(seed)
@@ -117,7 +120,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     method = METHOD_OF_REWARD[reward]
     if instance.fleet:
         _require_fleet_memory(instance, memory_limit)
-        build, slots, train_fn, rollout_fn = fleet_mdp.build, _fleet.FLEET_SLOTS, _fleet.train, _fleet.rollout
+        build, slots, train_fn, rollout_fn = fleet_mdp.build, fleet_kernels.FLEET_SLOTS, fleet_kernels.train, fleet_kernels.rollout
     else:
         base.require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
         build, slots, train_fn, rollout_fn = mdp_mod.build, 1 << 15, train, rollout
@@ -129,10 +132,10 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         try:
             model = build(instance, reward, penalty, slot_in_state, reward_units, stop=stop)
         except joint.NoJointPlan as e:  # proven: no legal plan to learn
-            return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
+            return Result.from_plan(instance, method, objective, None, status=Status.INFEASIBLE, runtime_s=stop.elapsed(),
                                     solver={**settings, "episodes_run": 0, "note": str(e)})
         except Stopped:  # nothing learnt: the plan of a stopped heuristic (no uploads, robots heading home)
-            from voiopt.solvers.baselines import stopped_result
+            from voiopt.solvers.baselines.heuristics import stopped_result
 
             return stopped_result(instance, method, objective, stop, {**settings, "episodes_run": 0},
                                   "stopped while building the MDP's tables")
@@ -179,9 +182,22 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes ({table.n_states} states)"
     return Result.from_plan(
         instance, method, objective, Plan.from_indices(instance, idx, sched),
-        status=(stop.reason if done < episodes else None) or "feasible", runtime_s=stop.elapsed(), solver=solver,
+        status=(stop.reason if done < episodes else None) or Status.FEASIBLE, runtime_s=stop.elapsed(), solver=solver,
     )
 
+
+@dataclass(frozen=True)
+class Options(options.Options):
+    """Q-learning's options (``solve``'s and ``solve_aoi``'s keywords)."""
+
+    episodes: int = EPISODES
+    seed: int = 0
+    beta: float = BETA
+    gamma: float = GAMMA
+    q_init: float = 0.0
+    penalty: float = mdp_mod.IDLE_PENALTY
+    slot_in_state: bool = False
+    reward_units: str = "bit/s"
 
 def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = False,
           episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
