@@ -187,7 +187,7 @@ class VoIEnv(gym.Env):
     def optimum(self) -> float:
         """The certified mean-min-voi optimum that normalises the reward (once per instance)."""
         if self._optimum is None:
-            from voiopt.solvers.dp.solver import solver as dp
+            from voiopt.solvers.dp import solver as dp
             from voiopt.voilib import library as voilib
 
             if self.instance not in _OPTIMA:
