@@ -100,3 +100,45 @@ def test_pettingzoo_render_test_passes(monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         render_test(lambda render_mode=None: parallel_to_aec(parallel_env(instance=inst, render_mode=render_mode)))
+
+
+HUMAN = """
+import warnings, numpy as np, matplotlib.pyplot as plt, voiopt
+from voiopt import env as voienv
+warnings.simplefilter("error")  # a warning would mean no window
+env = voienv.VoIEnv(voiopt.load({case!r}), render_mode="human")
+env.reset()
+for _ in range(3):
+    assert env.render() is None
+    env.step(int(np.flatnonzero(env.action_masks())[0]))
+figure = plt.gcf()
+assert plt.get_backend().lower() != "agg" and figure.axes[0].images, plt.get_backend()
+assert figure.axes[0].images[0].get_array().shape[:2] == (400, 480)
+env.close()
+print("window ok")
+"""
+
+
+def test_human_shows_a_window_on_a_display(tmp_path):
+    """On an X display (a virtual one, Xvfb, where installed) the frames go to a window."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    import time
+
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        pytest.skip("Xvfb is not installed (apt-get install xvfb): the window is not tested here")
+    display = f":{os.getpid() % 500 + 100}"
+    server = subprocess.Popen([xvfb, display, "-screen", "0", "800x600x24"], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(1.0)  # the server's start (a wait, not a timed assertion)
+        env = {**{k: v for k, v in os.environ.items() if k != "MPLBACKEND"}, "DISPLAY": display}
+        proc = subprocess.run([sys.executable, "-c", HUMAN.format(case=str(ROOT / "instances" / "case-study.json"))],
+                              env=env, capture_output=True, text=True, timeout=120)
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
+    assert proc.returncode == 0 and "window ok" in proc.stdout, proc.stderr
