@@ -130,6 +130,7 @@ def test_human_shows_a_window_on_a_display(tmp_path):
     xvfb = shutil.which("Xvfb")
     if xvfb is None:
         pytest.skip("Xvfb is not installed (apt-get install xvfb): the window is not tested here")
+    pytest.importorskip("tkinter", reason="no Tk for matplotlib's window (apt-get install python3-tk)")
     display = f":{os.getpid() % 500 + 100}"
     server = subprocess.Popen([xvfb, display, "-screen", "0", "800x600x24"], stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)
