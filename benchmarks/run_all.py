@@ -22,6 +22,7 @@ QUICK = [
     ["exact_scale.py", "--settings", "paper"],
     ["milp_scale.py", "--objectives", "min-voi", "max-aoi", "--threads", "1"],
     ["simulate_speed.py"],
+    ["lossy_expectation.py"],
 ]
 #: table name -> the full run that writes it (benchmarks/README.md, column "full")
 RESULTS = {
@@ -47,6 +48,8 @@ RESULTS = {
     "fleet_dp_scale": ["fleet_dp_scale.py"],
     "milp_scale": ["milp_scale.py"],
     "milp_vs_dp": ["milp_vs_dp.py"],
+    "lossy_expectation": ["lossy_expectation.py"],
+    "viewer_open": ["viewer_open.py"],
 }
 
 

@@ -22,12 +22,14 @@ __version__ = "0.1.0"
 _HOMES = {
     **dict.fromkeys(("InstanceError", "OptionError", "PlanError", "VoioptError"), "voiopt.errors"),
     **dict.fromkeys(("case_study", "generate", "generate_set"), "voiopt.networks.generate"),
-    **dict.fromkeys(("Channel", "Instance", "Robot", "Sensor", "load", "save"), "voiopt.core.instance"),
+    **dict.fromkeys(("Channel", "Instance", "Links", "Robot", "Sensor", "load", "save"), "voiopt.core.instance"),
     "OBJECTIVES": "voiopt.objectives",
+    "expected_metrics": "voiopt.core.expectation",
     **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.core.plan"),
     **dict.fromkeys(("Result", "load_result"), "voiopt.core.result"),
     **dict.fromkeys(("Trajectory", "evaluate", "simulate"), "voiopt.core.simulate"),
     **dict.fromkeys(("METHODS", "solve"), "voiopt.solvers"),
+    "Status": "voiopt.runtime.status",
 }
 
 
@@ -53,7 +55,8 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
-    "Channel", "FleetPlan", "Instance", "InstanceError", "METHODS", "OBJECTIVES", "OptionError", "Plan",
-    "PlanError", "Result", "Robot", "Sensor", "Trajectory", "VoioptError", "case_study", "evaluate",
+    "Channel", "FleetPlan", "Instance", "InstanceError", "Links", "METHODS", "OBJECTIVES", "OptionError", "Plan",
+    "PlanError", "Result", "Robot", "Sensor", "Status", "Trajectory", "VoioptError", "case_study", "evaluate",
+    "expected_metrics",
     "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
 ]

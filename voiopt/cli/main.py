@@ -13,8 +13,10 @@ from rich.console import Console
 from rich.table import Table
 
 import voiopt
+from voiopt.cli import lossy as cli_lossy
 from voiopt.cli.arguments import Parser, at_least, count
 from voiopt.cli.bench import add_commands as add_bench_commands
+from voiopt.cli.view import add_commands as add_view_commands
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import show
 from voiopt.core.plan import plan_of
@@ -28,6 +30,7 @@ from voiopt.networks.generate import generate as generate_one
 from voiopt.objectives import DEFAULT, OBJECTIVES
 from voiopt.runtime import numba_start
 from voiopt.runtime.files import check_output_dir, check_output_file, dumps_json, read_json
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import last_signal, sigterm_raises
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
@@ -88,7 +91,7 @@ def cmd_evaluate(args) -> int:
     d = read_json(args.plan, error=PlanError)
     plan = plan_of(d, args.plan, inst.name)
     try:
-        metrics = voiopt.evaluate(inst, plan)
+        metrics = cli_lossy.metrics(inst, plan)
     except PlanError as e:  # the plan breaks a rule of this instance: name the plan's file
         raise PlanError(f"{args.plan}: {e}") from None
     differ = None
@@ -100,9 +103,9 @@ def cmd_evaluate(args) -> int:
         err.print(f"note: {args.plan} says otherwise ({differ}): it was solved on another instance than "
                   f"{args.instance}, or edited", markup=False)
     if args.json:
-        print(json.dumps({"instance": inst.name, "metrics": metrics}, indent=2))
+        print(json.dumps(cli_lossy.evaluation_json(inst, metrics), indent=2))
     else:
-        out.print(_metrics_table({Path(args.plan).name: metrics}, title=inst.name))
+        out.print(_metrics_table({Path(args.plan).name: metrics}, title=cli_lossy.title(inst)))
     return 0
 
 
@@ -119,7 +122,7 @@ def _generate_options(args) -> dict:
                               "--sensors, --horizon, --max-moves and --robots")
         return dict(n_sensors=args.sensors, horizon=args.horizon or fields.FACTORY_HORIZON,
                     max_moves=fields.FACTORY_MAX_MOVES if args.max_moves is None else args.max_moves,
-                    robots=args.robots)
+                    robots=args.robots, links=args.links)
     if args.dock and args.robots < 2:
         raise OptionError(f"--dock: starts the robots around robot 0's start; give --robots K with K >= 2 "
                           f"(got --robots {args.robots})")
@@ -129,7 +132,7 @@ def _generate_options(args) -> dict:
         height=pick(args.height, 5.0), step=pick(args.step, 1.0), rho=tuple(pick(args.rho, [0.0, 1.0])),
         power_w=pick(args.power, 1.0), initial_aoi=tuple(pick(args.initial_aoi, [1, 1])),
         blocked_fraction=pick(args.blocked_fraction, 0.0), end=end, max_moves=args.max_moves,
-        robots=args.robots, dock=args.dock,
+        robots=args.robots, dock=args.dock, links=args.links,
     )
 
 
@@ -187,17 +190,17 @@ def cmd_solve(args) -> int:
         print(dumps_json(result.to_dict()))
     elif not args.quiet:
         out.print(result.summary(), markup=False)
-        out.print(_metrics_table({result.method: result.metrics}) if result.metrics else
+        out.print(_metrics_table({result.method: result.metrics}, cli_lossy.solve_title(inst)) if result.metrics else
                   f"no plan{': ' + result.solver['note'] if result.solver.get('note') else ''}", markup=False)
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
-    if result.status == "interrupted":  # the best plan is kept (and written), but the run did not finish
+    if result.status == Status.INTERRUPTED:  # the best plan is kept (and written), but the run did not finish
         kept = (f"written to {args.output}" if args.output else "printed above (--json)" if args.json
                 else "not kept (-o FILE keeps it)")
         err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is {kept}",
                   markup=False)
         return 128 + (last_signal() or signal.SIGINT)
-    return 0 if result.status != "error" else 1
+    return 0 if result.status != Status.ERROR else 1
 
 
 def cmd_export(args) -> int:
@@ -235,8 +238,7 @@ def cmd_figures(args) -> int:
 
     files = make_figures(
         args.out, networks=args.networks, robot_networks=args.robot_networks, episodes=args.episodes,
-        time_limit=args.time_limit,
-        memory_limit=args.memory_limit,
+        time_limit=args.time_limit, memory_limit=args.memory_limit,
         seed=args.seed, seeds=args.seeds, reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
@@ -341,6 +343,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--robots", type=int, default=1, metavar="K",
                    help="K robots (MODEL.md section 10) with distinct starts (default 1); the factory preset puts "
                         "them at the free points nearest the dock")
+    cli_lossy.add_links_option(s)
     s.add_argument("--dock", action="store_true",
                    help="with --robots: start the robots at the free points nearest robot 0's start")
     s.add_argument("--seed", type=_seed, default=0, help="the networks depend on it alone (default 0)")
@@ -419,6 +422,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="(default: the shipped case study, instances/case-study.json)")
 
     add_bench_commands(sub, _command, _add_executor_options, count)
+    add_view_commands(sub, _command)
     return p
 
 

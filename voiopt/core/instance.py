@@ -77,6 +77,17 @@ class Sensor:
     power_w: float = 1.0
     initial_aoi: int = 1
     initial_distance: float | None = None  # None means channel.d_th
+    success: float | None = None  # MODEL.md section 11: this sensor's success probability (only with links)
+
+
+@dataclass(frozen=True)
+class Links:
+    """Lossy links of MODEL.md section 11: ``bernoulli`` with ``success``, or ``rayleigh`` with
+    ``snr_threshold_db`` (the other field None); voiopt.core.links gives the probabilities."""
+
+    model: str
+    success: float | None = None
+    snr_threshold_db: float | None = None
 
 
 @dataclass(frozen=True)
@@ -104,6 +115,7 @@ class Instance:
     # MODEL.md section 10: two or more robots (then start, end and max_moves above are robot 0's,
     # and only ``robot(k)`` may be planned alone); () for one robot, whichever form its file used
     fleet: tuple[Robot, ...] = ()
+    links: Links | None = None  # MODEL.md section 11: uploads may fail; None, every upload succeeds
 
     @property
     def n_sensors(self) -> int:
@@ -157,10 +169,13 @@ class Instance:
                     "power_w": s.power_w,
                     "initial_aoi": s.initial_aoi,
                     "initial_distance": self.initial_distance(i),
+                    **({} if s.success is None else {"success": s.success}),
                 }
                 for i, s in enumerate(self.sensors)
             ],
         }
+        if self.links is not None:  # section 11's field only when given
+            d["links"] = {k: v for k, v in dataclasses.asdict(self.links).items() if v is not None}
         if self.blocked:  # section 9's fields only when given: the paper's files stay as they were
             d["blocked"] = [list(b) for b in self.blocked]
         if self.fleet:
@@ -177,7 +192,8 @@ class Instance:
         return from_dict(d)
 
 
-_ORDER = ("name", "area", "step", "horizon", "start", "robots", "channel", "sensors", "blocked", "end", "max_moves")
+_ORDER = ("name", "area", "step", "horizon", "start", "robots", "channel", "sensors", "blocked", "end", "max_moves",
+          "links")
 
 
 def _robot_dict(r: Robot) -> dict[str, Any]:
@@ -241,8 +257,37 @@ def _check_channel(ck: _Checker, ch: dict) -> Channel | None:
     return Channel(g0, bw, n0, dth)
 
 
-_SENSOR_FIELDS = frozenset({"position", "rho", "power_w", "initial_aoi", "initial_distance"})
+_SENSOR_FIELDS = frozenset({"position", "rho", "power_w", "initial_aoi", "initial_distance", "success"})
 _SENSOR_REQUIRED = ("position", "rho")
+LINK_MODELS = {"bernoulli": "success", "rayleigh": "snr_threshold_db"}  # each model's own field
+
+
+def _probability(ck: _Checker, d: dict, key: str, path: str) -> float | None:
+    """A success probability of MODEL.md section 11: a finite number in (0, 1]."""
+    p = ck.number(d, key, path)
+    if p is not None and not 0 < p <= 1:
+        return ck.fail(f"{path}.{key}", f"must be a probability in (0, 1], got {show(d[key])}")
+    return p
+
+
+def _check_links(ck: _Checker, raw: Any) -> Links | None:
+    """The ``links`` object of MODEL.md section 11 (a field of the other model is unknown)."""
+    d = ck.obj(raw, "links", {"model", *LINK_MODELS.values()}, {"model"})
+    if d is None or "model" not in d:
+        return None
+    model = d["model"]
+    if not isinstance(model, str) or model not in LINK_MODELS:
+        return ck.fail("links.model", f"must be one of {', '.join(map(repr, LINK_MODELS))}, got {show(model)}")
+    own = LINK_MODELS[model]
+    for other in set(LINK_MODELS.values()) - {own}:
+        if other in d:
+            ck.fail(f"links.{other}", f"unknown field for model {model!r} (allowed: model, {own})")
+    if own not in d:
+        return ck.fail(f"links.{own}", f"is required for model {model!r}")
+    value = _probability(ck, d, own, "links") if model == "bernoulli" else ck.number(d, own, "links")
+    if value is None:
+        return None
+    return Links(model, success=value) if model == "bernoulli" else Links(model, snr_threshold_db=value)
 
 
 def from_dict(d: Any, source: str = "") -> Instance:
@@ -252,7 +297,8 @@ def from_dict(d: Any, source: str = "") -> Instance:
         what = "a result JSON" if "plan" in d else "a plan"
         raise InstanceError(f"{source + ': ' if source else ''}{what}, not an instance (an instance has area, horizon, "
                             "sensors and start)")
-    top = {"name", "area", "step", "horizon", "start", "robots", "channel", "sensors", "blocked", "end", "max_moves"}
+    top = {"name", "area", "step", "horizon", "start", "robots", "channel", "sensors", "blocked", "end", "max_moves",
+           "links"}
     d = ck.obj(d, "", top, {"area", "horizon", "sensors"})
     if d is None:
         _raise(ck, source)
@@ -280,6 +326,7 @@ def from_dict(d: Any, source: str = "") -> Instance:
     area_ok = n_points is not None
     blocked = check_blocked(ck, d["blocked"], width, height, step, area_ok, n_points) if "blocked" in d else ()
     robots = check_robots(ck, d, width, height, step, area_ok)
+    links = _check_links(ck, d["links"]) if "links" in d else None
 
     sensors: list[Sensor] = []
     raw = d.get("sensors")
@@ -311,6 +358,9 @@ def from_dict(d: Any, source: str = "") -> Instance:
             power = None
         aoi = ck.integer(s, "initial_aoi", path, 1, 1, (max_aoi, aoi_note))
         q0 = ck.number(s, "initial_distance", path, None, nonnegative=True)
+        success = _probability(ck, s, "success", path) if "success" in s else None
+        if "success" in s and "links" not in d:
+            ck.fail(f"{path}.success", f"is only allowed with links (MODEL.md section 11), got {show(s['success'])}")
         if power is not None and bn0 is not None:
             d_max = math.sqrt(min(MAX_LINEAR, MAX_LINEAR * power * g0) / bn0)
             far.append((i, d_max, "initial_distance" in s))
@@ -318,8 +368,8 @@ def from_dict(d: Any, source: str = "") -> Instance:
                 ck.fail(f"{path}.initial_distance", f"must be <= {d_max:.3g} m, where the SNR P g0 / (B N0 d^2) of "
                                                     f"this sensor falls to {MIN_LINEAR:g}, got {show(s['initial_distance'])}")
                 q0 = None
-        if None not in (pos, rho, power, aoi):
-            sensors.append(Sensor(pos, rho, power, aoi, q0))
+        if None not in (pos, rho, power, aoi) and ("success" not in s or success is not None):
+            sensors.append(Sensor(pos, rho, power, aoi, q0, success))
 
     if n_points is not None and far:
         diagonal = math.hypot(width, height)
@@ -348,7 +398,7 @@ def from_dict(d: Any, source: str = "") -> Instance:
     first = fleet[0]
     fleet = fleet if len(fleet) > 1 else ()
     return Instance(name, width, height, horizon, first.start, tuple(sensors), step, channel, blocked, first.end,
-                    first.max_moves, fleet)
+                    first.max_moves, fleet, links)
 
 
 def _raise(ck: _Checker, source: str) -> None:

@@ -23,14 +23,15 @@ from voiopt.experiments.runner import (
     run_options,
     run_tasks,
 )
-from voiopt.objectives import check_objective
+from voiopt.objectives import Worth
 from voiopt.runtime.files import atomic_write, check_output_dir, write_csv
+from voiopt.runtime.status import Status
 from voiopt.solvers import RANDOMISED
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
 GAP_COLUMNS = ["instance", "method", "seed", "objective", "status", "value", "bound", "best_value", "best_bound",
                "gap", "runtime_s", "cause", "reward_units"]
-NORMAL = ("optimal", "feasible")  # every other status is counted and explained in summary.md
+NORMAL = (Status.OPTIMAL, Status.FEASIBLE)  # every other status is counted and explained in summary.md
 
 
 def cause(r: Result) -> str:
@@ -68,7 +69,7 @@ def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | No
             "value": r.value, "bound": r.bound, "best_value": best_value, "best_bound": best_bound,
             "gap": gap, "runtime_s": r.runtime_s, "cause": cause(r),
             # Q-learning's reading of V in its reward (MODEL.md section 7); the AoI reward has no V
-            "reward_units": r.solver.get("reward_units", "") if r.solver.get("reward") != "aoi" else "",
+            "reward_units": r.solver.get("reward_units", "") if r.solver.get("reward") != Worth.AOI else "",
         })
     return rows
 
@@ -79,15 +80,15 @@ def summarise(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> list[di
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
         gaps = [r["gap"] for r in mine if r["gap"] is not None]
-        times = [r["runtime_s"] for r in mine if r["status"] != "error"]
+        times = [r["runtime_s"] for r in mine if r["status"] != Status.ERROR]
         seeds = sorted({r["seed"] for r in mine if r.get("seed") is not None})
         out.append({
             "method": m,
             "instances": len({r["instance"] for r in mine}),
             "runs": len(mine),
             "seeds": seeds,
-            "optimal": sum(r["status"] == "optimal" for r in mine),
-            "errors": sum(r["status"] == "error" for r in mine),
+            "optimal": sum(r["status"] == Status.OPTIMAL for r in mine),
+            "errors": sum(r["status"] == Status.ERROR for r in mine),
             "other": _count_statuses(r["status"] for r in mine if r["status"] not in NORMAL),
             "median_gap": statistics.median(gaps) if gaps else None,
             "mean_gap": statistics.fmean(gaps) if gaps else None,
@@ -178,7 +179,7 @@ def gap_report(
     Randomised methods run with seeds seed .. seed + seeds - 1; the others once. Everything
     is checked before any work, and run.json is written only then. ``notes`` collects lines
     for the user (files skipped)."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     methods = check_methods(methods)
     options = run_options(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes,
                           reward_units=reward_units, seeds=seeds, workers=workers, dask_scheduler=dask_scheduler,

@@ -8,7 +8,6 @@ records the settings of a folder so that two experiments are never mixed.
 from __future__ import annotations
 
 import hashlib
-import inspect
 import json
 import os
 import signal
@@ -41,6 +40,7 @@ from voiopt.errors import (
 from voiopt.mdp.robot import check_reward_units
 from voiopt.runtime.files import atomic_write, loads_json, read_json, safe_name, write_json_atomic
 from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import (
     INTERRUPTED,
     Interrupted,
@@ -49,7 +49,7 @@ from voiopt.runtime.stop import (
     signals_seen,
     watch,
 )
-from voiopt.solvers import METHODS, RANDOMISED, check_robots, solver_function
+from voiopt.solvers import METHODS, RANDOMISED, check_robots, options_class, solver_function
 from voiopt.solvers.base import check_limits
 
 
@@ -177,8 +177,7 @@ def run_options(*, time_limit: float | None, memory_limit: float, episodes: int 
 
 def method_options(method: str, **given: Any) -> dict[str, Any]:
     """The options a method takes, from those given (None means 'not given')."""
-    params = inspect.signature(solver_function(method)).parameters
-    return {k: v for k, v in given.items() if v is not None and k in params}
+    return options_class(method).taken({k: v for k, v in given.items() if v is not None})
 
 
 def result_path(folder: Path, instance_name: str, method: str, seed: int | None = None) -> Path:
@@ -217,7 +216,7 @@ def solve_task(task: Task) -> dict[str, Any]:
         result = solver_function(task.method)(inst, task.objective, **task.options)
     except Exception as e:  # recorded, never fatal for the sweep
         result = Result(
-            task.instance_name, task.method, task.objective, "error", None, None, None,
+            task.instance_name, task.method, task.objective, Status.ERROR, None, None, None,
             time.perf_counter() - start, None, None, {"error": f"{type(e).__name__}: {e}"},
         )
     return result.to_dict()

@@ -9,7 +9,7 @@ change the objective are collapsed. The compiled kernels live in ``_dp_core``.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -20,8 +20,9 @@ from voiopt.core.plan import Plan
 from voiopt.core.result import Result
 from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
-from voiopt.objectives import check_objective
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import TIME_LIMIT, Stop, Stopped, watch
+from voiopt.solvers import options
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     check_limits,
@@ -72,6 +73,24 @@ def warm_up() -> float:
     return warm_up_once("dp", load)
 
 
+@dataclass(frozen=True)
+class Options(options.Options):
+    """dp's options (``solve``'s keywords)."""
+
+    warm_start: Plan | None = None
+    beam: int = DEFAULT_BEAM
+    greedy: bool = True
+    collapse: bool = True
+    bounding: bool = True
+    tdma: bool = True
+    pair_bound: bool = True
+    tour_bound: bool = True
+    subsets: bool = True
+    patterns: bool = True
+    fast_budget: int = FAST_BUDGET
+    quick_beam: int = QUICK_BEAM
+    threads: int = 1
+
 def solve(
     instance: Instance,
     objective: str,
@@ -111,7 +130,7 @@ def solve(
         return fleet_dp.solve(instance, objective, progress=progress, time_limit=time_limit, memory_limit=memory_limit,
                               warm_start=warm_start, beam=fleet_dp.FLEET_BEAM if beam == DEFAULT_BEAM else beam,
                               bounding=bounding, stopped=stopped_result)
-    check_objective(objective)
+    objective = objectives.get(objective)
     check_limits(time_limit, memory_limit)
     check_threads(threads)
     require_memory(table_bytes(instance), memory_limit, "dp's tables")
@@ -219,9 +238,9 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     if best_plan is None:  # stopped before any plan
         offer(idle_plan(instance), "idle")
     if out.complete:
-        bound_internal, status = max(best_value, out.value), "optimal"
+        bound_internal, status = max(best_value, out.value), Status.OPTIMAL
     elif subset_bound.reaches(best_value, relaxed):  # a plan as good as a subset's bound
-        bound_internal, status = max(best_value, relaxed), "optimal"
+        bound_internal, status = max(best_value, relaxed), Status.OPTIMAL
     else:
         bound_internal, status = max(best_value, min(out.open_bound, relaxed)), stop.reason or TIME_LIMIT
     solver = {
@@ -246,7 +265,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         solver["subsets"] = subset_runs
     if pattern_runs:
         solver["patterns"] = pattern_runs
-    if status != "optimal":
+    if status != Status.OPTIMAL:
         solver["stopped"] = stop.describe()
     return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=tab.external(bound_internal),
                             runtime_s=stop.elapsed(), solver=solver)
@@ -270,7 +289,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
     below that bound with the pattern of that pass: it finds a plan attaining the bound (often:
     the sensor that joined does not lower the optimum) or proves the optimum below it. Its
     passes run a hair (NEAR) below their threshold and are recorded, for the next subset."""
-    solved = [r for r in subset_runs if r["status"] == "optimal" and len(r["sensors"]) >= PATTERN_SENSORS]
+    solved = [r for r in subset_runs if r["status"] == Status.OPTIMAL and len(r["sensors"]) >= PATTERN_SENSORS]
     sensors = solved[0]["sensors"] if solved and patterns else None
     z = inc()
     given = extra = None  # a smaller subset's pass, for a subset's first pass; a subset's pass, for the whole's passes

@@ -21,7 +21,9 @@ from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.plan import Plan
 from voiopt.core.simulate import simulate
+from voiopt.objectives import Worth
 from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stop
 from voiopt.solvers.dp.tables import progress_text
 
@@ -58,7 +60,7 @@ def applies(objective: str, n_sensors: int) -> bool:
     in 44 s without the subsets, not in 60 s with them; `mean-max-aoi` the same bound either
     way)."""
     spec = objectives.get(objective)
-    return spec.per_slot and spec.worth == "voi" and n_sensors >= MIN_SENSORS
+    return spec.per_slot and spec.worth == Worth.VOI and n_sensors >= MIN_SENSORS
 
 
 def until(spent: float, budget: float, cap: float, times: list[float], left_out: int = 0,
@@ -154,7 +156,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
                                 labels=r.solver["labels"], bound=r.bound, passes=list(r.solver["passes"])))
             plan = Plan(r.plan.positions, tuple(None if u is None else keep[u] for u in r.plan.schedule))
             offer(plan, f"subset of {len(keep)}")
-            if r.status != "optimal" or reaches(incumbent()[1], best):
+            if r.status != Status.OPTIMAL or reaches(incumbent()[1], best):
                 break  # a larger subset would take longer still, or the bound is attained
             joins = _furthest_below(instance, objective, plan, keep)
             if joins is None:
@@ -178,7 +180,7 @@ def _furthest_below(instance: Instance, objective: str, plan: Plan, keep: list[i
     """The sensor outside ``keep`` whose worth under ``plan`` falls furthest below the minimum
     over ``keep`` (summed over slots 1..T), or None if none falls below it."""
     sim = simulate(instance, plan)
-    aoi = objectives.get(objective).worth == "aoi"
+    aoi = objectives.get(objective).worth == Worth.AOI
     worth = -np.asarray(sim.aoi, dtype=float)[1:] if aoi else np.asarray(sim.voi)[1:]
     below = np.clip(worth[:, keep].min(axis=1)[:, None] - worth, 0.0, None).sum(axis=0)
     below[keep] = 0.0

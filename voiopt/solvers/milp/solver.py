@@ -23,6 +23,7 @@ import math
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any
 
@@ -35,8 +36,10 @@ from voiopt.core.result import Result
 from voiopt.core.simulate import check_plan
 from voiopt.errors import OptionError
 from voiopt.grid import lattice as lattice_mod
-from voiopt.objectives import DEFAULT, check_objective
+from voiopt.objectives import DEFAULT, Worth
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import TIME_LIMIT, Stop, Stopped, resident_bytes, watch
+from voiopt.solvers import options
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     Incumbent,
@@ -66,6 +69,15 @@ TOLERANCES = {
 }
 
 
+@dataclass(frozen=True)
+class Options(options.Options):
+    """milp's options (``solve``'s keywords)."""
+
+    gap: float | None = None
+    threads: int | None = None
+    warm_start: Plan | None = None
+    verbose: bool = False
+
 def solve(
     instance: Instance,
     objective: str = DEFAULT,
@@ -80,7 +92,7 @@ def solve(
 ) -> Result:
     """Solve ``instance`` exactly for ``objective`` (within ``time_limit`` seconds, if given).
     ``verbose`` shows HiGHS's own log on stderr."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     check_limits(time_limit, memory_limit)
     if gap is not None and not gap >= 0:
         raise OptionError(f"--gap: must be >= 0, got {gap:g}")
@@ -107,7 +119,7 @@ def solve(
     if status == TIME_LIMIT and not stop.requested:  # HiGHS's own clock ran out first
         stop.request(TIME_LIMIT)
     if stop.requested:  # a proof completed as the stop came is kept: the result is whole (exit status 0)
-        run.details["stopped"] = stop.describe() + ("; the optimum was proven by then" if status == "optimal" else "")
+        run.details["stopped"] = stop.describe() + ("; the optimum was proven by then" if status == Status.OPTIMAL else "")
     return Result.from_plan(
         instance, METHOD, objective, run.incumbent.plan, status=status, bound=bound,
         runtime_s=stop.elapsed(), solver=run.details,
@@ -158,7 +170,7 @@ class _Run:
 
     def worth(self, value: float) -> float:
         """An objective value as a worth (AoI objectives are minimised: worth = -A)."""
-        return value if self.kind == "voi" else -value
+        return value if self.kind == Worth.VOI else -value
 
     def remaining(self) -> float | None:
         return self.stop.remaining()
@@ -272,7 +284,7 @@ class _Run:
         self.details["build_s"] += time.perf_counter() - t
         self.details["candidates"] = int(top - max(lo, 0) + 1)
         steps = []
-        status = "optimal"
+        status = Status.OPTIMAL
         while lo < hi:
             if self.out_of_time():
                 status = self.stop.reason or TIME_LIMIT
@@ -322,7 +334,7 @@ class _Run:
 
         t = time.perf_counter()
         warm_worth = self.worth(self.incumbent.value)
-        scale = warm_worth if self.kind == "voi" and warm_worth > 0 else None
+        scale = warm_worth if self.kind == Worth.VOI and warm_worth > 0 else None
         try:
             model = milp_formulation.build(self.instance, self.objective, scale=scale, stop=self.stop)
         except Stopped:  # the best plan so far (the warm start), no bound
@@ -342,15 +354,15 @@ class _Run:
         self.details["mip_gap"] = float(info.mip_gap) if math.isfinite(info.mip_gap) else None
         bound = self._dual_bound_worth(model, info)
         if ms == K.kOptimal:
-            status = "optimal"
+            status = Status.OPTIMAL
             bound = self._patch(model, bound)
         elif ms in _STOPPED:
             status = self.stop.reason or TIME_LIMIT
         else:  # keep the best plan, claim nothing
             self.details["note"] = f"HiGHS ended with {self.details['highs_status']!r}"
-            return (self.stop.reason if self.stop.requested else "feasible"), None
+            return (self.stop.reason if self.stop.requested else Status.FEASIBLE), None
         value = self.worth(self.incumbent.value)
-        if status == "optimal" and self.stop.requested and bound is not None and _above(bound, value):
+        if status == Status.OPTIMAL and self.stop.requested and bound is not None and _above(bound, value):
             # HiGHS proved its bound but, stopped, did not hand over the plan that meets it
             status = self.stop.reason
         if bound is not None and _above(value, bound):
@@ -358,7 +370,7 @@ class _Run:
             self.details["note"] = (f"HiGHS's bound {self.worth(bound):.10g} fell below the simulated value of a plan it "
                                     "found: no proof from it; the bound is the relaxation's (docs/milp.md)")
             bound = self._dual_bound_worth(model, _NO_INFO)
-            status = "feasible" if status == "optimal" else status
+            status = Status.FEASIBLE if status == Status.OPTIMAL else status
         return status, (None if bound is None else self.worth(bound))
 
     def _dual_bound_worth(self, model: milp_model.Model, info) -> float | None:
@@ -370,7 +382,7 @@ class _Run:
         if math.isfinite(b):
             highs_w = model.worth_of_objective(b)
             w = min(w, highs_w + BOUND_RTOL * abs(highs_w) + _abs_slack(model))
-        if self.kind == "aoi":  # sum over slots of integer ages: round down to a multiple of 1/T
+        if self.kind == Worth.AOI:  # sum over slots of integer ages: round down to a multiple of 1/T
             T = self.instance.horizon
             w = math.floor(w * T + 1e-6) / T
         return w
@@ -387,7 +399,7 @@ class _Run:
             if self.out_of_time():
                 return bound
             # worths of AoI plans are multiples of 1/T: ask for the next multiple
-            step = 0.5 / self.instance.horizon if self.kind == "aoi" else PATCH_RTOL * abs(value)
+            step = 0.5 / self.instance.horizon if self.kind == Worth.AOI else PATCH_RTOL * abs(value)
             cutoff = value + step
             h = self.highs(model)
             z = model.z_cols
@@ -398,7 +410,7 @@ class _Run:
                 idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
                 self.incumbent.offer(idx, sched, source="HiGHS (patch)")
             if ms == highspy.HighsModelStatus.kInfeasible:  # as sure as HiGHS's tolerances (_abs_slack)
-                return min(bound, value if self.kind == "aoi" else cutoff + _abs_slack(model))
+                return min(bound, value if self.kind == Worth.AOI else cutoff + _abs_slack(model))
             if ms != highspy.HighsModelStatus.kOptimal:
                 return bound
             new = self._dual_bound_worth(model, info)

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
+from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.plan import Plan
 from voiopt.core.result import Result
@@ -23,10 +25,11 @@ from voiopt.grid import joint
 from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import fleet as fleet_mdp
 from voiopt.mdp import robot as mdp_mod
-from voiopt.objectives import AOI_DEFAULT, DEFAULT, check_objective
+from voiopt.objectives import AOI_DEFAULT, DEFAULT
 from voiopt.runtime.progress import progress_bar, text_column
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
-from voiopt.solvers import base
+from voiopt.solvers import base, options
 from voiopt.solvers.qlearning import fleet as fleet_kernels
 from voiopt.solvers.qlearning.kernels import rollout, train
 from voiopt.solvers.qlearning.rng import seed_state
@@ -106,7 +109,7 @@ METHOD_OF_REWARD = {"voi": "qlearning", "aoi": "aoi-qlearning"}
 def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
          episodes: int, seed: int, beta: float, gamma: float, q_init: float, penalty: float,
          time_limit: float | None, memory_limit: float, slot_in_state: bool, reward_units: str) -> Result:
-    check_objective(objective)
+    objective = objectives.get(objective)
     _check_options(episodes, seed, beta, gamma, q_init, penalty)
     check_seed(seed)
     check_stream_seeds(seed)
@@ -129,7 +132,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         try:
             model = build(instance, reward, penalty, slot_in_state, reward_units, stop=stop)
         except joint.NoJointPlan as e:  # proven: no legal plan to learn
-            return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
+            return Result.from_plan(instance, method, objective, None, status=Status.INFEASIBLE, runtime_s=stop.elapsed(),
                                     solver={**settings, "episodes_run": 0, "note": str(e)})
         except Stopped:  # nothing learnt: the plan of a stopped heuristic (no uploads, robots heading home)
             from voiopt.solvers.baselines.heuristics import stopped_result
@@ -179,9 +182,22 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes ({table.n_states} states)"
     return Result.from_plan(
         instance, method, objective, Plan.from_indices(instance, idx, sched),
-        status=(stop.reason if done < episodes else None) or "feasible", runtime_s=stop.elapsed(), solver=solver,
+        status=(stop.reason if done < episodes else None) or Status.FEASIBLE, runtime_s=stop.elapsed(), solver=solver,
     )
 
+
+@dataclass(frozen=True)
+class Options(options.Options):
+    """Q-learning's options (``solve``'s and ``solve_aoi``'s keywords)."""
+
+    episodes: int = EPISODES
+    seed: int = 0
+    beta: float = BETA
+    gamma: float = GAMMA
+    q_init: float = 0.0
+    penalty: float = mdp_mod.IDLE_PENALTY
+    slot_in_state: bool = False
+    reward_units: str = "bit/s"
 
 def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = False,
           episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
