@@ -137,6 +137,30 @@ def write(name: str, command: str, text: str, source: str = MEASURED, **given: s
     return path
 
 
+def combine(name: str, parts: list[Path]) -> Path | None:
+    """One table from several runs' tables (one benchmark at several settings): their commands
+    joined in the header, each run's body under its own command. The machine, software, commit
+    and date are this process's, taken when the runs have just finished."""
+    commands, bodies = [], []
+    for part in parts:
+        head, _, rest = part.read_text(encoding="utf-8").partition("\n\n- Command: `")
+        command, _, rest = rest.partition("`\n")
+        commands.append(command)
+        bodies.append(f"Run: `{command}`\n\n" + rest.split("\n\n", 1)[1].strip())
+    folder = os.environ.get("VOIOPT_RESULTS_DIR", str(RESULTS))
+    if folder == "-":
+        return None
+    from voiopt.runtime.files import atomic_write
+
+    path = Path(folder) / f"{name}.md"
+    try:
+        with atomic_write(path) as f:
+            f.write(header(name, "; ".join(commands)) + "\n" + "\n\n".join(bodies) + "\n")
+    except OSError as e:
+        raise SystemExit(f"{path}: cannot write the results table: {e.strerror or e}") from None
+    return path
+
+
 class _Tee(io.TextIOBase):
     def __init__(self, stream):
         self.stream, self.buffer_ = stream, io.StringIO()

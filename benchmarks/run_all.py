@@ -14,6 +14,7 @@ import argparse
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).parent
@@ -38,10 +39,10 @@ RESULTS = {
     "exact_scale_frontier": ["exact_scale.py", "--settings", "n8,n10,n12,n16,n8t60,n4t100",
                              "--objectives", "mean-min-voi", "--threads", "2"],
     "exact_scale_f30": ["exact_scale.py", "--settings", "f30", "--threads", "2"],
-    **{f"exact_scale_ingredients_{name}": ["exact_scale.py", "--settings", "paper,n6", "--networks", "8",
-                                           "--time-limit", "60", *flags]
-       for name, flags in {"all": [], "no_tdma_pair": ["--no-tdma", "--no-pair"], "no_collapse": ["--no-collapse"],
-                           "no_bounding": ["--no-bounding"]}.items()},
+    # one table from four runs: each ingredient switched off in turn (report.combine)
+    "exact_scale_ingredients": [["exact_scale.py", "--settings", "paper,n6", "--networks", "8", "--time-limit", "60",
+                                 *flags]
+                                for flags in ([], ["--no-tdma", "--no-pair"], ["--no-collapse"], ["--no-bounding"])],
     "planner": ["planner.py", "--settings", "paper,n6", "--networks", "10", "--seeds", "3"],
     "fleet_scale": ["fleet_scale.py", "--settings", "n3t10,n4t10,n4t20,n6t20", "--networks", "3",
                     "--time-limit", "30", "--seeds", "2", "--episodes", "200000"],
@@ -51,6 +52,22 @@ RESULTS = {
     "lossy_expectation": ["lossy_expectation.py"],
     "viewer_open": ["viewer_open.py"],
 }
+
+
+def _results(name: str) -> bool:
+    """Run the job(s) of one table; several runs are combined into one table."""
+    jobs = RESULTS[name]
+    if isinstance(jobs[0], str):
+        return _run(jobs, {**os.environ, "VOIOPT_RESULTS_NAME": name})
+    import report
+
+    with tempfile.TemporaryDirectory() as tmp:
+        parts = [Path(tmp) / f"{name}.{i}.md" for i in range(len(jobs))]
+        ok = all([_run(job, {**os.environ, "VOIOPT_RESULTS_DIR": tmp, "VOIOPT_RESULTS_NAME": part.stem})
+                  for job, part in zip(jobs, parts, strict=True)])
+        if ok:
+            report.combine(name, parts)
+        return ok
 
 
 def _run(args: list[str], env: dict) -> bool:
@@ -66,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     failed = 0
     if args.results:
         for name in args.only or RESULTS:
-            failed += not _run(RESULTS[name], {**os.environ, "VOIOPT_RESULTS_NAME": name})
+            failed += not _results(name)
     else:
         env = {**os.environ, "VOIOPT_RESULTS_DIR": os.environ.get("VOIOPT_RESULTS_DIR", "-")}
         for job in QUICK:

@@ -135,3 +135,15 @@ def test_run_keeps_what_main_prints_and_names_the_table(tmp_path, monkeypatch, c
     assert "| 3 |" in capsys.readouterr().out
     text = (tmp_path / "renamed.md").read_text(encoding="utf-8")
     assert "`python benchmarks/demo.py --settings 'a b'`" in text and "| 3 |" in text
+
+
+def test_several_runs_combine_into_one_table_naming_every_command(tmp_path, monkeypatch):
+    report = _load_report()
+    monkeypatch.setenv("VOIOPT_RESULTS_DIR", str(tmp_path / "parts"))
+    parts = [report.write(f"t.{i}", f"python benchmarks/x.py --flag {i}", f"| run |\n|---|\n| {i} |\n") for i in (0, 1)]
+    monkeypatch.setenv("VOIOPT_RESULTS_DIR", str(tmp_path))
+    text = report.combine("t", parts).read_text(encoding="utf-8")
+    assert "- Command: `python benchmarks/x.py --flag 0; python benchmarks/x.py --flag 1`" in text
+    assert text.index("Run: `python benchmarks/x.py --flag 0`") < text.index("| 0 |")
+    assert text.index("| 0 |") < text.index("Run: `python benchmarks/x.py --flag 1`") < text.index("| 1 |")
+    assert f"- Source: {report.MEASURED}" in text
