@@ -30,7 +30,7 @@ RESULTS = {
     "qlearning_speed": ["qlearning_speed.py"],
     "qlearning_phases": ["qlearning_phases.py", "--sensors", "8", "--horizon", "40", "--size", "6",
                          "--network-seed", "3", "--episodes", "300000", "--slots", "16777216"],
-    "fleet_qlearning_speed": ["fleet_qlearning_speed.py"],
+    "fleet_qlearning_speed": ["fleet_qlearning_speed.py"],  # 20000 episodes: the setting docs/qlearning.md describes
     "reward_reading": ["reward_reading.py"],
     "simulate_speed": ["simulate_speed.py"],
     "exact_scale": ["exact_scale.py", "--settings", "paper,n6,t50,n8"],
