@@ -26,6 +26,7 @@ _HOMES = {
     **dict.fromkeys(("case_study", "generate", "generate_set"), "voiopt.generate"),
     **dict.fromkeys(("Channel", "Instance", "Links", "Robot", "Sensor", "load", "save"), "voiopt.instance"),
     "OBJECTIVES": "voiopt.objectives",
+    "Policy": "voiopt.core.policy",
     **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.plan"),
     **dict.fromkeys(("Result", "load_result"), "voiopt.result"),
     **dict.fromkeys(("Trajectory", "evaluate", "simulate"), "voiopt.simulate"),
@@ -70,6 +71,6 @@ sys.modules[__name__].__class__ = _Package
 
 __all__ = [
     "Channel", "FleetPlan", "Instance", "InstanceError", "Links", "METHODS", "OBJECTIVES", "OptionError", "Plan",
-    "PlanError", "Result", "Robot", "Sensor", "Trajectory", "VoioptError", "case_study", "evaluate",
+    "PlanError", "Policy", "Result", "Robot", "Sensor", "Trajectory", "VoioptError", "case_study", "evaluate",
     "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
 ]

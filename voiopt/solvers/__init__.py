@@ -27,6 +27,7 @@ METHODS: dict[str, tuple[str, str]] = {
     "shortest-path": ("voiopt.solvers.baselines", "shortest_path"),
     "greedy": ("voiopt.solvers.baselines", "greedy"),
     "beam": ("voiopt.solvers.beam", "solve"),
+    "policy-dp": ("voiopt.solvers.policy.solver", "solve"),
 }
 
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds
