@@ -180,3 +180,16 @@ def test_monte_carlo_agrees_with_exact_within_its_ci():
     est = monte_carlo_value(r.policy, sample_scenarios(inst, 400, seed=11))
     assert est.count == 400
     assert est.ci[0] <= r.value <= est.ci[1]
+
+
+def test_cli_saves_the_policy_beside_the_result(tmp_path, capsys):
+    from voiopt.cli import main
+
+    inst_path = tmp_path / "tiny.json"
+    voiopt.save(from_dict(tiny(1, 2, 4, {"model": "bernoulli", "success": 0.6})), inst_path)
+    out = tmp_path / "r.json"
+    assert main(["solve", str(inst_path), "--method", "policy-dp", "-o", str(out), "--quiet"]) == 0
+    result = voiopt.load_result(out)
+    assert result.solver["policy_file"] == "r.policy.json"
+    policy = Policy.load(tmp_path / "r.policy.json")
+    assert exact_value(policy) == pytest.approx(result.value, rel=1e-12)

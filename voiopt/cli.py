@@ -17,6 +17,7 @@ from voiopt import _numba_start, fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file, dumps_json, read_json
 from voiopt.cli_bench import add_commands as add_bench_commands
+from voiopt.cli_policy import add_policy_option, policy_path, save_policy
 from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
@@ -76,7 +77,7 @@ def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
     for m in OBJECTIVES:
         table.add_column(m, justify="right")
     for name, metrics in rows.items():
-        table.add_row(name, *(f"{metrics[m]:.6g}" for m in OBJECTIVES))
+        table.add_row(name, *(f"{metrics[m]:.6g}" if m in metrics else "-" for m in OBJECTIVES))
     return table
 
 
@@ -212,7 +213,7 @@ def cmd_solve(args) -> int:
     if args.output is not None:  # before the work, not after it
         check_output_file(args.output, inputs=[("INSTANCE", args.instance), ("--warm-start", args.warm_start)])
     inst = instance_mod.load(args.instance)
-    result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst))
+    result = save_policy(policy_path(args), voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst)))
     if args.output:
         result.save(args.output)
     if args.json:
@@ -403,7 +404,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print the result JSON to stdout")
     s.add_argument("--quiet", action="store_true", help="print nothing but errors")
     s.add_argument("--verbose", action="store_true", help="milp: show HiGHS's own log on stderr")
-    s.set_defaults(func=cmd_solve)
+    add_policy_option(s).set_defaults(func=cmd_solve)
 
     s = _command(sub, "export", "write the MILP of an instance as MPS or LP (by extension)", cmd_export)
     s.add_argument("instance", metavar="INSTANCE", help="an instance JSON file")

@@ -181,6 +181,12 @@ class Policy:
         return policy
 
 
+def beside(result_path: str | os.PathLike) -> str:
+    """RESULT.policy.json for a result file RESULT.json (or RESULT): where a policy is saved."""
+    text = str(result_path)
+    return (text[:-5] if text.endswith(".json") else text) + ".policy.json"
+
+
 def table_of(rows, objective: str, instance: Instance, method: str) -> Policy:
     """A table policy from (slot, state, (u, m)) rows (states as voiopt.core.steps makes them)."""
     policy = Policy(instance, objective, method, table={})
