@@ -27,7 +27,7 @@ LAYERS = [
     ("voiopt.models",),
     ("voiopt.solvers",),
     ("voiopt.env", "voiopt.pz_env", "voiopt.plots", "voiopt.experiments"),
-    ("voiopt.cli", "voiopt.cli_bench", "voiopt.cli_policy", "voiopt.__main__", "voiopt"),
+    ("voiopt.cli", "voiopt.cli_bench", "voiopt.cli_lossy", "voiopt.cli_policy", "voiopt.__main__", "voiopt"),
 ]
 
 

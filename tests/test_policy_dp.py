@@ -125,7 +125,7 @@ def test_policy_dp_equals_exhaustive_expectimax(seed, n, T, links, extra, object
     inst = from_dict(d)
     r = voiopt.solve(inst, "policy-dp", objective)
     want = oracle(d, objective)
-    assert r.status == "optimal"
+    assert r.status == "optimal" and r.evaluation == "exact" and r.bound_kind == "exact"
     assert r.value == pytest.approx(want, rel=1e-9)
     assert r.bound == pytest.approx(want, rel=1e-9)
     assert r.policy.kind == "table"

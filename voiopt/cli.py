@@ -13,11 +13,10 @@ from rich.console import Console
 from rich.table import Table
 
 import voiopt
-from voiopt import _numba_start, fields, lattice
+from voiopt import _numba_start, cli_lossy, cli_policy, fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file, dumps_json, read_json
 from voiopt.cli_bench import add_commands as add_bench_commands
-from voiopt.cli_policy import add_policy_option, policy_path, save_policy
 from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
@@ -121,7 +120,7 @@ def cmd_evaluate(args) -> int:
     d = read_json(args.plan, error=PlanError)
     plan = plan_of(d, args.plan, inst.name)
     try:
-        metrics = voiopt.evaluate(inst, plan)
+        metrics = cli_lossy.metrics(inst, plan)
     except PlanError as e:  # the plan breaks a rule of this instance: name the plan's file
         raise PlanError(f"{args.plan}: {e}") from None
     differ = None
@@ -133,9 +132,9 @@ def cmd_evaluate(args) -> int:
         err.print(f"note: {args.plan} says otherwise ({differ}): it was solved on another instance than "
                   f"{args.instance}, or edited", markup=False)
     if args.json:
-        print(json.dumps({"instance": inst.name, "metrics": metrics}, indent=2))
+        print(json.dumps(cli_lossy.evaluation_json(inst, metrics), indent=2))
     else:
-        out.print(_metrics_table({Path(args.plan).name: metrics}, title=inst.name))
+        out.print(_metrics_table({Path(args.plan).name: metrics}, title=cli_lossy.title(inst)))
     return 0
 
 
@@ -152,7 +151,7 @@ def _generate_options(args) -> dict:
                               "--sensors, --horizon, --max-moves and --robots")
         return dict(n_sensors=args.sensors, horizon=args.horizon or fields.FACTORY_HORIZON,
                     max_moves=fields.FACTORY_MAX_MOVES if args.max_moves is None else args.max_moves,
-                    robots=args.robots)
+                    robots=args.robots, links=args.links)
     if args.dock and args.robots < 2:
         raise OptionError(f"--dock: starts the robots around robot 0's start; give --robots K with K >= 2 "
                           f"(got --robots {args.robots})")
@@ -162,7 +161,7 @@ def _generate_options(args) -> dict:
         height=pick(args.height, 5.0), step=pick(args.step, 1.0), rho=tuple(pick(args.rho, [0.0, 1.0])),
         power_w=pick(args.power, 1.0), initial_aoi=tuple(pick(args.initial_aoi, [1, 1])),
         blocked_fraction=pick(args.blocked_fraction, 0.0), end=end, max_moves=args.max_moves,
-        robots=args.robots, dock=args.dock,
+        robots=args.robots, dock=args.dock, links=args.links,
     )
 
 
@@ -213,7 +212,7 @@ def cmd_solve(args) -> int:
     if args.output is not None:  # before the work, not after it
         check_output_file(args.output, inputs=[("INSTANCE", args.instance), ("--warm-start", args.warm_start)])
     inst = instance_mod.load(args.instance)
-    result = save_policy(policy_path(args), voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst)))
+    result = cli_policy.save_policy(cli_policy.policy_path(args), voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst)))
     if args.output:
         result.save(args.output)
     if args.json:
@@ -374,6 +373,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--robots", type=int, default=1, metavar="K",
                    help="K robots (MODEL.md section 10) with distinct starts (default 1); the factory preset puts "
                         "them at the free points nearest the dock")
+    cli_lossy.add_links_option(s)
     s.add_argument("--dock", action="store_true",
                    help="with --robots: start the robots at the free points nearest robot 0's start")
     s.add_argument("--seed", type=_seed, default=0, help="the networks depend on it alone (default 0)")
@@ -404,7 +404,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print the result JSON to stdout")
     s.add_argument("--quiet", action="store_true", help="print nothing but errors")
     s.add_argument("--verbose", action="store_true", help="milp: show HiGHS's own log on stderr")
-    add_policy_option(s).set_defaults(func=cmd_solve)
+    cli_policy.add_policy_option(s).set_defaults(func=cmd_solve)
 
     s = _command(sub, "export", "write the MILP of an instance as MPS or LP (by extension)", cmd_export)
     s.add_argument("instance", metavar="INSTANCE", help="an instance JSON file")

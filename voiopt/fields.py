@@ -217,12 +217,12 @@ def seeded(seed) -> tuple[np.random.Generator, object]:
 
 def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, seed: int | np.random.SeedSequence = 0,
             max_moves: int | None = FACTORY_MAX_MOVES, rho: tuple[float, float] = FACTORY_RHO,
-            channel: Channel | None = None, name: str | None = None, robots: int = 1) -> Instance:
+            channel: Channel | None = None, name: str | None = None, robots: int = 1, links: dict | None = None) -> Instance:
     """The factory-floor preset: a 20 x 20 m floor with racks of shelving (``factory_blocked``),
     the dock at the corner (0, 0) as start and end, ``n_sensors`` (default: uniform in 10..30)
     on machines and shelves, each within d_th of an aisle point, rho ~ U(0.6, 0.99), T = 100 and
     a budget of 80 moves. With ``robots`` K > 1, the K robots start and end at the free points
-    nearest the dock (MODEL.md section 10: no two share a point)."""
+    nearest the dock (MODEL.md section 10: no two share a point). ``links``: as ``generate``'s."""
     rng, seed_label = seeded(seed)
     if n_sensors is not None and (isinstance(n_sensors, bool) or not isinstance(n_sensors, int) or n_sensors < 1):
         raise OptionError(f"sensors: must be an integer >= 1, got {n_sensors!r}")
@@ -246,4 +246,4 @@ def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, see
     inst = Instance(name, FACTORY_SIZE, FACTORY_SIZE, horizon, dock, tuple(sensors), 1.0, channel,
                     tuple((float(x), float(y)) for x, y in blocked), dock, max_moves)
     inst = add_robots(inst, rng, robots, dock=True, end="start")
-    return instance_mod.from_dict(inst.to_dict())
+    return instance_mod.from_dict(inst.to_dict() | ({} if links is None else {"links": links}))

@@ -34,6 +34,7 @@ def generate(
     max_moves: int | None = None,
     robots: int = 1,
     dock: bool = False,
+    links: dict | None = None,
 ) -> Instance:
     """One random network: sensors uniform in the area, start uniform on the lattice,
     rho ~ U(rho[0], rho[1]) (redrawn in the rare case it hits 0 or 1), initial AoI uniform
@@ -44,7 +45,8 @@ def generate(
     never the start or end and never cutting the free points apart; ``end`` "start", "random"
     (a free point the entity can reach in time and budget) or a point (x, y); ``max_moves``.
     ``robots`` K > 1 (MODEL.md section 10) adds robots 1..K-1 after that (fields.add_robots):
-    distinct starts, uniform or with ``dock`` around robot 0's start, and ends by ``end``."""
+    distinct starts, uniform or with ``dock`` around robot 0's start, and ends by ``end``.
+    ``links`` (MODEL.md section 11, an instance's ``links`` object) is added last, drawing nothing."""
     _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi, channel)
     rng, seed_label = fields.seeded(seed)
     fields.check_options(blocked_fraction, end, max_moves, horizon)
@@ -67,7 +69,7 @@ def generate(
         inst = fields.draw(inst, rng, blocked_fraction, end, max_moves)
     if robots != 1 or dock:
         inst = fields.add_robots(inst, rng, robots, dock, end)
-    return instance_mod.from_dict(inst.to_dict())  # validated like any file
+    return instance_mod.from_dict(inst.to_dict() | ({} if links is None else {"links": links}))  # validated like any file
 
 
 PRESETS = ("factory",)

@@ -25,6 +25,10 @@ from voiopt.simulate import simulate
 STATUSES = ("optimal", "feasible", "time_limit", "memory_limit", "interrupted", "infeasible", "error")
 STOPPED = ("time_limit", "memory_limit", "interrupted")  # stopped early, with a plan
 OPTIMAL_RTOL = 1e-6
+EVALUATIONS = ("exact", "monte-carlo")  # MODEL.md section 11: how a lossy result's value was computed
+BOUND_KINDS = ("exact", "lossless", "information-relaxation")
+PROVEN_KINDS = ("exact", "lossless")  # information-relaxation is statistical: never called proven
+LOSSY_FIELDS = ("evaluation", "samples", "value_ci", "bound_kind", "bound_samples", "bound_confidence")
 
 
 @dataclass
@@ -40,6 +44,13 @@ class Result:
     plan: Plan | None
     metrics: dict[str, float] | None
     solver: dict[str, Any] = field(default_factory=dict)
+    # MODEL.md section 11, lossy instances only (None otherwise, and then absent from the JSON)
+    evaluation: str | None = None  # "exact" or "monte-carlo": how ``value`` and ``metrics`` were computed
+    samples: int | None = None  # monte-carlo: the number of scenarios
+    value_ci: tuple[float, float] | None = None  # monte-carlo: the 95 % confidence interval of ``value``
+    bound_kind: str | None = None  # "exact", "lossless" or "information-relaxation" (statistical)
+    bound_samples: int | None = None  # information-relaxation: the number of scenarios
+    bound_confidence: float | None = None  # information-relaxation: the one-sided confidence level
 
     @classmethod
     def from_plan(
@@ -83,6 +94,39 @@ class Result:
             status = "feasible"
         return cls(instance.name, method, objective, status, value, bound, gap, float(runtime_s), plan, metrics, solver)
 
+    @classmethod
+    def lossy(cls, instance: Instance, method: str, objective: str, *, status: str, metrics: dict[str, float],
+              evaluation: str, plan: Plan | None = None, bound: float | None = None, bound_kind: str | None = None,
+              samples: int | None = None, value_ci: tuple[float, float] | None = None,
+              bound_samples: int | None = None, bound_confidence: float | None = None, runtime_s: float = 0.0,
+              solver: dict[str, Any] | None = None) -> Result:
+        """A result on a lossy instance (MODEL.md section 11): ``metrics`` are expectations,
+        computed as ``evaluation`` says (never a solver's number). ``optimal`` is claimed only
+        with an exact value equal, to a relative 1e-6, to an exact bound."""
+        check_objective(objective)
+        if status not in STATUSES:
+            raise ValueError(f"status: unknown status {status!r}")
+        if evaluation not in EVALUATIONS or (bound is None) != (bound_kind is None) or (
+                bound_kind is not None and bound_kind not in BOUND_KINDS):
+            raise ValueError(f"evaluation {evaluation!r}, bound {bound!r}, bound_kind {bound_kind!r}: not a lossy result")
+        solver = dict(solver or {})
+        value = metrics[objective]
+        bound = _clean(bound)
+        if bound is not None and evaluation == "exact" and bound_kind in PROVEN_KINDS:
+            maximise = objectives.get(objective).maximise
+            violation = (value - bound) if maximise else (bound - value)
+            if violation > OPTIMAL_RTOL * max(abs(bound), abs(value), TINY):
+                raise RuntimeError(f"{method}: {bound_kind} bound {bound!r} is worse than the exact value {value!r}")
+            bound = value if violation > 0 else bound
+        gap = objectives.gap(value, bound)
+        if status == "optimal" and not (evaluation == "exact" and bound_kind == "exact" and gap is not None
+                                        and gap <= OPTIMAL_RTOL):
+            solver.setdefault("note", "optimality not claimed: it needs an exact value equal to an exact bound")
+            status = "feasible"
+        return cls(instance.name, method, objective, status, value, bound, gap, float(runtime_s), plan, dict(metrics),
+                   solver, evaluation, samples, None if value_ci is None else tuple(map(float, value_ci)), bound_kind,
+                   bound_samples, bound_confidence)
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "instance": self.instance,
@@ -96,6 +140,7 @@ class Result:
             "plan": None if self.plan is None else self.plan.to_dict(),
             "metrics": self.metrics,
             "solver": _jsonable(self.solver),
+            **({} if self.evaluation is None else {k: _jsonable(getattr(self, k)) for k in LOSSY_FIELDS}),
         }
 
     @classmethod
@@ -112,6 +157,7 @@ class Result:
                 d["instance"], d["method"], d["objective"], d["status"], d["value"], d["bound"],
                 d["gap"], d["runtime_s"], None if d["plan"] is None else Plan.from_dict(d["plan"]),
                 d["metrics"], d.get("solver", {}),
+                **{k: d[k] for k in LOSSY_FIELDS if k in d},
             )
         except (KeyError, TypeError) as e:
             raise VoioptError(f"result: missing or malformed field {e}") from None
@@ -125,6 +171,11 @@ class Result:
         gap = objectives.show_gap(self.gap, 4)
         startup = self.solver.get("startup_s") if isinstance(self.solver, dict) else None
         compiled = f"; start-up {startup:.1f} s" if isinstance(startup, (int, float)) and startup >= 1 else ""
+        if self.evaluation is not None:  # lossy: the value is an expectation, the bound has a kind
+            how = "exact" if self.evaluation == "exact" else f"monte-carlo, {self.samples} scenarios, 95 % CI " + (
+                "-" if self.value_ci is None else f"[{self.value_ci[0]:.6g}, {self.value_ci[1]:.6g}]")
+            val = f"{val} (expected, {how})"
+            bnd = f"{bnd} ({self.bound_kind})" if self.bound is not None else bnd
         return (
             f"{self.instance}  {self.method}  {self.objective}: {self.status}  "
             f"value {val}  bound {bnd}  gap {gap}  ({self.runtime_s:.2f} s{compiled})"

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt import lattice as lattice_mod
-from voiopt import physics
+from voiopt import objectives, physics
 from voiopt.core.links import is_lossy, success_probability
 from voiopt.instance import Instance
 from voiopt.plan import FleetPlan, Plan
@@ -42,18 +42,14 @@ def expected_metrics(instance: Instance, plan: Plan | FleetPlan | dict) -> dict[
         return simulate_indices(instance, idx, sched).metrics
     uploads = sensor_uploads(instance, idx, sched)
     T = instance.horizon
-    out = {}
+    worst = {}  # (worth, per_slot) -> E[...] of the min over sensors of their worth
     for kind in ("voi", "aoi"):
         worth = _Worth(instance, kind)
         per_slot = [[_slot_distribution(worth, i, ups, t) for i, ups in enumerate(uploads)] for t in range(1, T + 1)]
-        mean = sum(expected_min(dists) for dists in per_slot) / T
-        overall = expected_min([_bottleneck_survival(worth, i, ups, T) for i, ups in enumerate(uploads)])
-        if kind == "voi":
-            out["min-voi"], out["mean-min-voi"] = overall, mean
-        else:
-            out["max-aoi"], out["mean-max-aoi"] = -overall, -mean
-    return {k: float(out[k]) for k in ("min-voi", "mean-min-voi", "max-aoi", "mean-max-aoi")}
-
+        worst[kind, True] = sum(expected_min(dists) for dists in per_slot) / T
+        worst[kind, False] = expected_min([_bottleneck_survival(worth, i, ups, T) for i, ups in enumerate(uploads)])
+    # an objective maximises the min worth (V), or minimises the max age (worth -A)
+    return {o.name: float(worst[o.worth, o.per_slot] * (1 if o.maximise else -1)) for o in objectives.BY_NAME.values()}
 
 def sensor_uploads(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> list[np.ndarray]:
     """Each sensor's uploads in a checked plan, in slot order, as a (U, 3) array of rows

@@ -12,6 +12,7 @@ so that no finite threshold gives a NaN (p = 1 at d = 0, p = 0 where the exponen
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 
@@ -87,3 +88,12 @@ def _lossy(instance: Instance) -> bool:
     table = success_table(instance, lat)
     usable = lat.in_range.T & ~lat.blocked[:, None]
     return bool((table[usable] < 1.0).any())
+
+
+def without_links(instance: Instance) -> Instance:
+    """The lossless instance of the same network: no ``links``, no per-sensor ``success``.
+    Every realised run of every policy is one of its plans (MODEL.md section 11)."""
+    if instance.links is None:
+        return instance
+    sensors = tuple(dataclasses.replace(s, success=None) for s in instance.sensors)
+    return dataclasses.replace(instance, links=None, sensors=sensors)

@@ -12,6 +12,7 @@ import inspect
 from typing import Any
 
 from voiopt import instance as instance_mod
+from voiopt.core.links import is_lossy, without_links
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.objectives import DEFAULT, check_objective
@@ -29,6 +30,10 @@ METHODS: dict[str, tuple[str, str]] = {
     "beam": ("voiopt.solvers.beam", "solve"),
     "policy-dp": ("voiopt.solvers.policy.solver", "solve"),
 }
+
+# methods that return a policy and value it themselves under lossy links (MODEL.md section 11);
+# every other method's plan is valued by its exact expectation (voiopt.solvers.lossy_plans)
+POLICY_METHODS: frozenset[str] = frozenset({"policy-dp"})
 
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds
 RANDOMISED = frozenset({"qlearning", "aoi-qlearning"})
@@ -77,4 +82,8 @@ def solve(instance: Instance, method: str | None = None, objective: str = DEFAUL
                 takes = [k for k, p in params.items() if p.kind is p.KEYWORD_ONLY and k != "progress"]
                 raise OptionError(f"--{key.replace('_', '-')} ({key}= in Python): not an option of method {method!r} "
                                   f"(it takes {', '.join(takes)})")
+    if is_lossy(instance) and method not in POLICY_METHODS:  # a plan on lossy links: solved lossless, valued exactly
+        from voiopt.solvers.lossy_plans import plan_result
+
+        return plan_result(instance, fn(without_links(instance), objective, **options))
     return fn(instance, objective, **options)

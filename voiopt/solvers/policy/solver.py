@@ -16,6 +16,7 @@ from __future__ import annotations
 import time
 
 from voiopt.core.expectation import expected_metrics
+from voiopt.core.links import without_links
 from voiopt.core.policy import Policy, table_of
 from voiopt.core.policy_value import exact_value
 from voiopt.errors import OptionError
@@ -24,7 +25,7 @@ from voiopt.objectives import check_objective
 from voiopt.progress import progress_bar
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 from voiopt.solvers.policy.expectimax import AVERAGED, Expectimax
-from voiopt.solvers.policy.report import lossless, policy_result
+from voiopt.solvers.policy.report import policy_result
 from voiopt.stop import Stopped, watch
 
 LOSSLESS_SHARE = 0.25  # of a time limit, the most the lossless dp may take
@@ -41,7 +42,7 @@ def lossless_optimum(instance: Instance, objective: str, time_limit: float | Non
     """dp's result on the instance without links: its plan and its proven bound."""
     from voiopt.solvers import dp
 
-    return dp.solve(lossless(instance), objective, time_limit=time_limit, memory_limit=memory_limit)
+    return dp.solve(without_links(instance), objective, time_limit=time_limit, memory_limit=memory_limit)
 
 
 def solve(instance: Instance, objective: str, *, progress: bool = False, time_limit: float | None = None,

@@ -1,0 +1,114 @@
+"""Plan methods on lossy instances (MODEL.md section 11): each solves the lossless problem and
+reports its plan's exact expected value, never ``optimal``, with the lossless bound labelled;
+an instance whose every success probability is 1 gives the lossless result's JSON."""
+
+from __future__ import annotations
+
+import itertools
+import json
+
+import pytest
+from conftest import fleet_instances, tiny_instances
+from oracles import model_oracle as oracle
+
+import voiopt
+from voiopt.core.expectation import expected_metrics
+from voiopt.instance import from_dict
+from voiopt.objectives import OBJECTIVES
+
+PLAN_METHODS = ("dp", "milp", "beam", "greedy", "shortest-path")
+PROVEN = ("dp", "milp")  # exact methods: their lossless bound is the lossless optimum
+
+
+def lossy(inst, links):
+    return from_dict(inst.to_dict() | {"links": links})
+
+
+@pytest.mark.parametrize("method", PLAN_METHODS)
+@pytest.mark.parametrize("objective", list(OBJECTIVES))
+def test_plan_methods_report_the_exact_expectation_and_the_lossless_bound(method, objective):
+    for k, inst in enumerate(tiny_instances(3, seed=70)):
+        links = [{"model": "bernoulli", "success": 0.55}, {"model": "rayleigh", "snr_threshold_db": 25.0}][k % 2]
+        lossy_inst = lossy(inst, links)
+        r = voiopt.solve(lossy_inst, method, objective)
+        plain = voiopt.solve(inst, method, objective)
+        assert r.plan is not None and r.status == "feasible"
+        assert r.evaluation == "exact" and r.samples is None and r.value_ci is None
+        assert r.metrics == expected_metrics(lossy_inst, r.plan)
+        assert r.value == r.metrics[objective]
+        assert r.solver["lossless_status"] == plain.status and r.solver["lossless_value"] == plain.value
+        if method in PROVEN:
+            assert plain.status == "optimal"
+            assert r.bound_kind == "lossless" and r.bound == pytest.approx(plain.bound, rel=1e-12)
+            maximise = OBJECTIVES[objective] == "max"
+            assert (r.value <= r.bound) if maximise else (r.value >= r.bound)
+        else:
+            assert (r.bound is None) == (r.bound_kind is None)
+
+
+def test_the_lossless_bound_is_no_worse_than_every_plans_expectation():
+    """The lossless optimum bounds every policy; here, every plan of a tiny instance."""
+    for inst in tiny_instances(2, seed=31):
+        lossy_inst = lossy(inst, {"model": "bernoulli", "success": 0.5})
+        plans = [voiopt.Plan.from_dict(p) for p in itertools.islice(oracle.legal_plans(inst.to_dict()), 150)]
+        for objective, sense in OBJECTIVES.items():
+            r = voiopt.solve(lossy_inst, "dp", objective)
+            values = [expected_metrics(lossy_inst, p)[objective] for p in plans]
+            best = max(values) if sense == "max" else min(values)
+            assert (best <= r.bound * (1 + 1e-9)) if sense == "max" else (best >= r.bound * (1 - 1e-9))
+
+
+def test_fleet_plan_methods_value_the_fleet_plan_exactly():
+    inst = fleet_instances(2, seed=4)[0]
+    lossy_inst = lossy(inst, {"model": "bernoulli", "success": 0.6})
+    for method in ("dp", "greedy"):
+        r = voiopt.solve(lossy_inst, method)
+        assert r.metrics == expected_metrics(lossy_inst, r.plan) and r.status == "feasible"
+
+
+@pytest.mark.parametrize("links", [{"model": "bernoulli", "success": 1}, {"model": "rayleigh", "snr_threshold_db": -1e6}])
+@pytest.mark.parametrize("method", PLAN_METHODS)
+def test_success_one_gives_the_lossless_result(method, links):
+    inst = tiny_instances(2, seed=12)[1]
+    a = voiopt.solve(inst, method).to_dict()
+    b = voiopt.solve(lossy(inst, links), method).to_dict()
+    for d in (a, b):
+        d.pop("runtime_s")
+        d["solver"] = {k: v for k, v in d["solver"].items() if not k.endswith("_s")}
+    assert json.dumps(a) == json.dumps(b)
+
+
+def test_a_lossy_result_round_trips_through_json(tmp_path, case_study):
+    r = voiopt.solve(lossy(case_study, {"model": "bernoulli", "success": 0.8}), "greedy")
+    path = tmp_path / "r.json"
+    r.save(path)
+    d = json.loads(path.read_text())
+    assert d["evaluation"] == "exact" and d["bound_kind"] is None and "value_ci" in d
+    assert voiopt.load_result(path).to_dict() == d
+    assert "expected, exact" in r.summary()
+
+
+def test_lossless_results_have_no_lossy_fields(case_study):
+    d = voiopt.solve(case_study, "greedy").to_dict()
+    assert not {"evaluation", "samples", "value_ci", "bound_kind"} & d.keys()
+
+
+def test_optimal_needs_an_exact_value_and_an_exact_bound(case_study):
+    inst = lossy(case_study, {"model": "bernoulli", "success": 0.8})
+    plan = voiopt.solve(case_study, "greedy").plan
+    m = expected_metrics(inst, plan)
+    v = m["mean-min-voi"]
+    claims = {
+        ("exact", "exact", v): "optimal",
+        ("exact", "lossless", v): "feasible",
+        ("monte-carlo", "exact", v): "feasible",
+        ("exact", "information-relaxation", v): "feasible",
+        ("exact", "exact", v * 1.01): "feasible",
+    }
+    for (evaluation, kind, bound), status in claims.items():
+        r = voiopt.Result.lossy(inst, "x", "mean-min-voi", status="optimal", metrics=m, evaluation=evaluation,
+                                plan=plan, bound=bound, bound_kind=kind, samples=10 if evaluation != "exact" else None)
+        assert r.status == status, (evaluation, kind)
+    with pytest.raises(RuntimeError, match="worse than the exact value"):
+        voiopt.Result.lossy(inst, "x", "mean-min-voi", status="feasible", metrics=m, evaluation="exact", plan=plan,
+                            bound=v * 0.9, bound_kind="lossless")

@@ -1,0 +1,81 @@
+"""The command line under lossy links (MODEL.md section 11): ``generate --links``, ``evaluate``
+reporting a plan's exact expected objectives, labelled, and ``solve`` on a lossy instance."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from conftest import ROOT
+
+import voiopt
+from voiopt.cli import main
+from voiopt.cli_lossy import parse_links
+from voiopt.core.expectation import expected_metrics
+from voiopt.errors import OptionError
+
+CASE = str(ROOT / "instances" / "case-study.json")
+PLAN = str(ROOT / "instances" / "case-study.plan.json")
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def test_generate_links_adds_them_and_changes_nothing_else(capsys):
+    code, plain, _ = run(capsys, "generate", "--sensors", "3", "--seed", "4")
+    code2, lossy, _ = run(capsys, "generate", "--sensors", "3", "--seed", "4", "--links", "rayleigh:21.5")
+    assert code == code2 == 0
+    a, b = json.loads(plain), json.loads(lossy)
+    assert b.pop("links") == {"model": "rayleigh", "snr_threshold_db": 21.5}
+    assert a == b
+    code, out, _ = run(capsys, "generate", "--preset", "factory", "--sensors", "2", "--links", "bernoulli:0.9")
+    assert code == 0 and json.loads(out)["links"] == {"model": "bernoulli", "success": 0.9}
+
+
+@pytest.mark.parametrize("text", ["bernoulli:0", "bernoulli:1.01", "bernoulli:nan", "bernoulli", "rayleigh:inf",
+                                  "rayleigh:", "gilbert:0.5", "0.5"])
+def test_bad_links_option_is_one_line_exit_2(capsys, text):
+    with pytest.raises(SystemExit) as e:
+        main(["generate", "--links", text])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--links" in err and text in err
+    with pytest.raises(OptionError, match="^--links: "):
+        parse_links(text)
+
+
+def test_evaluate_reports_exact_expectations_labelled(capsys, tmp_path):
+    inst = voiopt.load(CASE)
+    path = tmp_path / "lossy.json"
+    path.write_text(json.dumps(inst.to_dict() | {"links": {"model": "bernoulli", "success": 0.5}}))
+    code, out, _ = run(capsys, "evaluate", str(path), PLAN, "--json")
+    assert code == 0
+    d = json.loads(out)
+    want = expected_metrics(voiopt.load(path), voiopt.load_plan(PLAN))
+    assert d["metrics"] == want and d["expected"] is True and d["evaluation"] == "exact"
+    assert d["metrics"] != voiopt.evaluate(inst, voiopt.load_plan(PLAN))
+    code, out, _ = run(capsys, "evaluate", str(path), PLAN)
+    assert code == 0 and "expected" in out and "exact" in out
+
+
+def test_evaluate_without_losses_is_unchanged(capsys, tmp_path):
+    code, out, _ = run(capsys, "evaluate", CASE, PLAN, "--json")
+    d = json.loads(out)
+    assert set(d) == {"instance", "metrics"} and d["metrics"] == voiopt.evaluate(voiopt.load(CASE), voiopt.load_plan(PLAN))
+    path = tmp_path / "ones.json"
+    path.write_text(json.dumps(voiopt.load(CASE).to_dict() | {"links": {"model": "bernoulli", "success": 1}}))
+    code, out2, _ = run(capsys, "evaluate", str(path), PLAN, "--json")
+    assert json.loads(out2) == d
+
+
+def test_solve_on_a_lossy_instance_writes_the_labelled_result(capsys, tmp_path):
+    path = tmp_path / "lossy.json"
+    path.write_text(json.dumps(voiopt.load(CASE).to_dict() | {"links": {"model": "rayleigh", "snr_threshold_db": 28}}))
+    code, out, _ = run(capsys, "solve", str(path), "--method", "greedy", "-o", str(tmp_path / "r.json"))
+    assert code == 0 and "expected, exact" in out
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["evaluation"] == "exact" and r["status"] == "feasible"
+    assert r["metrics"] == expected_metrics(voiopt.load(path), voiopt.Plan.from_dict(r["plan"]))
