@@ -193,3 +193,15 @@ def test_cli_saves_the_policy_beside_the_result(tmp_path, capsys):
     assert result.solver["policy_file"] == "r.policy.json"
     policy = Policy.load(tmp_path / "r.policy.json")
     assert exact_value(policy) == pytest.approx(result.value, rel=1e-12)
+
+
+def test_stopped_by_the_memory_limit_returns_the_open_loop_plan_and_the_lossless_bound():
+    d = voiopt.load("instances/case-study.json").to_dict() | {"links": {"model": "bernoulli", "success": 0.7}}
+    inst = from_dict(d)
+    r = voiopt.solve(inst, "policy-dp", "mean-min-voi", memory_limit=1e-3)
+    assert r.status == "memory_limit" and r.bound_kind == "lossless" and r.evaluation == "exact"
+    assert r.policy.kind == "plan" and r.plan is not None
+    from voiopt.core.expectation import expected_metrics
+
+    assert r.value == expected_metrics(inst, r.plan)["mean-min-voi"]
+    assert r.value < r.bound
