@@ -29,11 +29,12 @@ METHODS: dict[str, tuple[str, str]] = {
     "greedy": ("voiopt.solvers.baselines", "greedy"),
     "beam": ("voiopt.solvers.beam", "solve"),
     "policy-dp": ("voiopt.solvers.policy.solver", "solve"),
+    "replan": ("voiopt.solvers.policy.replan", "solve"),
 }
 
 # methods that return a policy and value it themselves under lossy links (MODEL.md section 11);
 # every other method's plan is valued by its exact expectation (voiopt.solvers.lossy_plans)
-POLICY_METHODS: frozenset[str] = frozenset({"policy-dp"})
+POLICY_METHODS: frozenset[str] = frozenset({"policy-dp", "replan"})
 
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds
 RANDOMISED = frozenset({"qlearning", "aoi-qlearning"})
