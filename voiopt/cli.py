@@ -189,7 +189,7 @@ def cmd_generate(args) -> int:
 
 def _solve_options(args, inst) -> dict:
     opts = {}
-    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units"):
+    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units", *cli_policy.POLICY_OPTIONS):
         v = getattr(args, key, None)
         if v is not None:
             opts[key] = v

@@ -7,10 +7,17 @@ from pathlib import Path
 
 from voiopt._files import check_output_file
 
+POLICY_OPTIONS = ("samples", "ir_samples", "planner")  # passed to the method only where given
+
 
 def add_policy_option(parser):
     parser.add_argument("--policy-out", default=None, metavar="POLICY",
                         help="where a policy method saves its policy (default: RESULT.policy.json beside -o)")
+    parser.add_argument("--samples", type=int, default=None, metavar="K",
+                        help="replan, qlearning on lossy links: coupled scenarios of a Monte Carlo value (default 1000)")
+    parser.add_argument("--ir-samples", type=int, default=None, metavar="K",
+                        help="replan, qlearning on lossy links: scenarios of the information-relaxation bound (default 0: none)")
+    parser.add_argument("--planner", default=None, choices=("dp", "beam"), help="replan: the lossless solver (default dp)")
     return parser
 
 
