@@ -34,7 +34,7 @@ METHODS: dict[str, tuple[str, str]] = {
 
 # methods that return a policy and value it themselves under lossy links (MODEL.md section 11);
 # every other method's plan is valued by its exact expectation (voiopt.solvers.lossy_plans)
-POLICY_METHODS: frozenset[str] = frozenset({"policy-dp", "replan"})
+POLICY_METHODS: frozenset[str] = frozenset({"policy-dp", "replan", "qlearning", "aoi-qlearning"})
 
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds
 RANDOMISED = frozenset({"qlearning", "aoi-qlearning"})
