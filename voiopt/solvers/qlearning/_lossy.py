@@ -160,6 +160,19 @@ def _train_lossy(
     return n_episodes
 
 
+@njit(cache=True)
+def _lookup(key, table):
+    """The pool row of the state with packed ``key`` in the table, or -1 if it was never visited."""
+    s, found = _find(key[0], key, table)
+    return _row(table, s) if found else -1
+
+
+def q_row(model, table, state) -> np.ndarray | None:
+    """The Q-values of a state's actions (mdp.MDP's state tuple), or None if never visited."""
+    r = _lookup(model.encode(state), table.table)
+    return None if r < 0 else table.pool[r: r + int(model.n_actions[state[0]])]
+
+
 def train_lossy(model, table, n_episodes: int, eps: np.ndarray, eps0: float, beta: float, gamma: float,
                 rng: np.ndarray, succ: np.ndarray) -> tuple[int, bool]:
     """Run n_episodes of Algorithm 1 with outcomes drawn, growing the table as needed."""

@@ -28,7 +28,7 @@ from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
 from voiopt.instance import Instance
 from voiopt.models import mdp as mdp_mod
 from voiopt.progress import progress_bar, text_column
-from voiopt.solvers.qlearning._lossy import train_lossy
+from voiopt.solvers.qlearning._lossy import q_row, train_lossy
 from voiopt.solvers.qlearning._qtable import QTable
 from voiopt.solvers.qlearning._rng import seed_state
 from voiopt.stop import MEMORY_LIMIT, Stopped, watch
@@ -40,9 +40,9 @@ CHUNK_EPISODES = 2000
 class QPolicy(Policy):
     """The greedy policy of a trained Q-table; decisions asked for are kept in ``table``."""
 
-    def __init__(self, instance: Instance, objective: str, method: str, model, q: dict) -> None:
+    def __init__(self, instance: Instance, objective: str, method: str, model, qtable) -> None:
         super().__init__(instance, objective, method, table={})
-        self.model, self.q = model, q
+        self.model, self.qtable = model, qtable
         self.visited = 0  # decisions taken from the learnt table (the rest: the fallback)
         self.unvisited = 0
         lat = self.steps.lat
@@ -68,7 +68,7 @@ class QPolicy(Policy):
         moves = k if m.moves_in_state else 0
         options = [self.candidates[i].get(round(q, 9), []) for i, q in enumerate(qs)]
         for qidx in itertools.product(*options):
-            row = self.q.get((p, tuple(ages), tuple(qidx), slot, moves))
+            row = None if self.qtable is None else q_row(m, self.qtable, (p, ages, qidx, slot, moves))
             if row is None:
                 continue
             feasible = m.feasible((p, ages, qidx, slot, moves), t)
@@ -118,16 +118,16 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
                     if done < episodes and stop.check():
                         break
             table.drop_next()
-            q = table.to_dict()
         else:
-            q = {}
+            table = None
         stopped = stop.reason if done < episodes else None
-        solver = {**settings, "episodes_run": done, "table_states": len(q), "links": "outcomes drawn"}
+        solver = {**settings, "episodes_run": done, "table_states": 0 if table is None else table.n_states,
+                  "links": "outcomes drawn"}
         if stopped:
             solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes"
     if model is None:
         model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
-    policy = QPolicy(instance, objective, method, model, q)
+    policy = QPolicy(instance, objective, method, model, table)
     evaluation = evaluate_policy(policy, objective, samples=samples, seed=seed, max_states=EXACT_STATES)
     solver["decisions"] = {"from_table": policy.visited, "fallback": policy.unvisited}
     base = lossless_optimum(instance, objective, None, memory_limit)
