@@ -33,11 +33,11 @@ class Expectimax:
     """The optimal values and actions of every state reachable from the start."""
 
     def __init__(self, instance: Instance, objective: str, succ: np.ndarray | None = None,
-                 stop: Stop | None = None) -> None:
+                 stop: Stop | None = None, tick=None) -> None:
         if objective not in AVERAGED:
             raise ValueError(f"objective {objective!r}: the expectimax takes only {', '.join(AVERAGED)}")
         self.steps = Steps(instance, objectives.get(objective).worth == "voi", succ)
-        self.objective, self.stop = objective, stop
+        self.objective, self.stop, self.tick = objective, stop, tick  # tick(states): progress, now and then
         self.T = instance.horizon
         self.memo: list[dict] = [{} for _ in range(self.T + 1)]
         self.states = 0
@@ -91,8 +91,10 @@ class Expectimax:
 
     def _count(self) -> None:
         self.states += 1
-        if self.stop is not None and self.states % CHECK_EVERY == 0:
-            if self.stop.check(self.memory_bytes()) is not None:
+        if self.states % CHECK_EVERY == 0:
+            if self.tick is not None:
+                self.tick(self.states)
+            if self.stop is not None and self.stop.check(self.memory_bytes()) is not None:
                 raise Stopped(self.stop.reason)
 
     def memory_bytes(self) -> float:

@@ -60,7 +60,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     solver = {"lossless": {"status": base.status, "value": base.value, "bound": base.bound}}
     with watch(left, memory_limit) as stop, progress_bar(progress) as bar:
         task = bar.add_task("policy-dp: states", total=None)
-        search = Expectimax(instance, objective, stop=stop)
+        search = Expectimax(instance, objective, stop=stop, tick=lambda n: bar.update(task, completed=n))
         try:
             value = search.solve()
             rows = search.on_policy()
@@ -69,7 +69,8 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         bar.update(task, completed=search.states)
     solver["states"] = search.states
     if value is None:
-        solver["stopped"] = stop.describe()
+        solver["stopped"] = (f"time limit of {time_limit:g} s reached" if stop.reason == "time_limit"
+                             and time_limit is not None else stop.describe())
         solver["note"] = "the expectimax did not finish: the policy is the lossless optimum plan, open-loop"
         evaluation = {"value": expected_metrics(instance, base.plan)[objective], "evaluation": "exact"}
         return policy_result(instance, "policy-dp", objective, open_loop, evaluation, status=stop.reason,
