@@ -16,6 +16,7 @@ QUICK = [
     ["exact_scale.py", "--settings", "paper"],
     ["milp_scale.py", "--objectives", "min-voi", "max-aoi", "--threads", "1"],
     ["simulate_speed.py"],
+    ["lossy_expectation.py"],
 ]
 
 

@@ -26,7 +26,7 @@ LAYERS = [
      "voiopt.plan", "voiopt.simulate", "voiopt.result", "voiopt.generate", "voiopt.stop", "voiopt.progress"),
     ("voiopt.models",),
     ("voiopt.solvers",),
-    ("voiopt.env", "voiopt.pz_env", "voiopt.plots", "voiopt.experiments"),
+    ("voiopt.env", "voiopt.env_links", "voiopt.pz_env", "voiopt.plots", "voiopt.experiments"),
     ("voiopt.cli", "voiopt.cli_bench", "voiopt.cli_lossy", "voiopt.cli_policy", "voiopt.__main__", "voiopt"),
 ]
 

@@ -12,6 +12,8 @@ import random
 
 import pytest
 from conftest import fleet_instances, tiny_instances
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from oracles import model_oracle as oracle
 
 import voiopt
@@ -128,3 +130,23 @@ def test_an_illegal_plan_is_a_plan_error(case_study):
     plan = voiopt.Plan(((9.0, 9.0),) * case_study.horizon, (None,) * case_study.horizon)
     with pytest.raises(voiopt.PlanError, match=r"positions\[0\]"):
         expected_metrics(lossy, plan)
+
+
+SMALL = tiny_instances(12, seed=4040)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True, database=None)
+@given(st.integers(0, len(SMALL) - 1), st.integers(0, 2**31),
+       st.lists(st.one_of(st.just(1.0), st.floats(1e-6, 1.0)), min_size=3, max_size=3))
+def test_expected_metrics_equal_brute_force_for_any_probabilities(k, seed, probs):
+    """Per-sensor probabilities anywhere in (0, 1], 1 included (a sensor that never fails)."""
+    d = SMALL[k].to_dict()
+    plans = [oracle.random_legal_plan(d, random.Random(seed + j)) for j in range(6)]
+    plan = max(plans, key=lambda q: min(8, sum(u is not None for u in q["schedule"])))
+    dl = copy.deepcopy(d) | {"links": {"model": "bernoulli", "success": 0.5}}
+    for s, p in zip(dl["sensors"], probs, strict=False):
+        s["success"] = p
+    got = expected_metrics(from_dict(dl), voiopt.Plan.from_dict(plan))
+    want = brute_expectation(dl, plan)
+    for name in NAMES:
+        assert got[name] == pytest.approx(want[name], rel=1e-9, abs=1e-300), name

@@ -23,6 +23,7 @@ from voiopt.errors import InstanceError
 from voiopt.instance import Links, from_dict
 
 SCHEMA = json.loads((Path(__file__).parent.parent / "docs" / "instance.schema.json").read_text())
+VALIDATOR = jsonschema.Draft202012Validator(SCHEMA)  # built once: the property tests validate hundreds
 GOOD = {
     "name": "lossy",
     "area": {"width": 3, "height": 2},
@@ -33,7 +34,7 @@ GOOD = {
         {"position": [2.5, 0.4], "rho": 0.4, "power_w": 0.5},
     ],
 }
-SETTINGS = settings(max_examples=150, deadline=None, derandomize=True, database=None)
+SETTINGS = settings(max_examples=100, deadline=None, derandomize=True, database=None)
 
 
 def with_links(links, **sensor0):
@@ -135,7 +136,7 @@ def test_valid_links_round_trip_and_match_the_schema(links, p0, p1):
     assert out["links"] == links
     assert from_dict(out).to_dict() == out
     assert from_dict(json.loads(json.dumps(out))) == from_dict(out)
-    jsonschema.validate(out, SCHEMA)
+    VALIDATOR.validate(out)
 
 
 @SETTINGS
@@ -151,8 +152,7 @@ def test_mutated_links_load_or_fail_on_the_links_field(links, key, value):
     except InstanceError as e:
         assert str(e).startswith("links") and "\n" not in str(e)
         if not (isinstance(value, float) and not math.isfinite(value)):  # JSON has no NaN or Infinity
-            with pytest.raises(jsonschema.ValidationError):
-                jsonschema.validate(with_links(bad), SCHEMA)
+            assert not VALIDATOR.is_valid(with_links(bad))
         return
     assert from_dict(inst.to_dict()).to_dict() == inst.to_dict()
     p = bad.get("success")

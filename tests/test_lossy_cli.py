@@ -75,7 +75,17 @@ def test_solve_on_a_lossy_instance_writes_the_labelled_result(capsys, tmp_path):
     path = tmp_path / "lossy.json"
     path.write_text(json.dumps(voiopt.load(CASE).to_dict() | {"links": {"model": "rayleigh", "snr_threshold_db": 28}}))
     code, out, _ = run(capsys, "solve", str(path), "--method", "greedy", "-o", str(tmp_path / "r.json"))
-    assert code == 0 and "expected, exact" in out
+    assert code == 0 and "expected, exact" in out and "expected objectives over the upload outcomes" in out
     r = json.loads((tmp_path / "r.json").read_text())
     assert r["evaluation"] == "exact" and r["status"] == "feasible"
     assert r["metrics"] == expected_metrics(voiopt.load(path), voiopt.Plan.from_dict(r["plan"]))
+
+
+def test_plot_of_a_lossy_result_checks_its_expected_metrics(capsys, tmp_path):
+    path = tmp_path / "lossy.json"
+    path.write_text(json.dumps(voiopt.load(CASE).to_dict() | {"links": {"model": "bernoulli", "success": 0.6}}))
+    assert run(capsys, "solve", str(path), "--method", "greedy", "-o", str(tmp_path / "r.json"))[0] == 0
+    code, out, _ = run(capsys, "plot", str(tmp_path / "r.json"), "--instance", str(path), "-o", str(tmp_path / "r.png"))
+    assert code == 0 and (tmp_path / "r.png").stat().st_size > 0
+    code, _, err = run(capsys, "plot", str(tmp_path / "r.json"), "--instance", CASE, "-o", str(tmp_path / "s.png"))
+    assert code == 2 and "does not give what the result says" in err  # the lossless instance: other values

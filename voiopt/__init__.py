@@ -27,6 +27,7 @@ _HOMES = {
     **dict.fromkeys(("Channel", "Instance", "Links", "Robot", "Sensor", "load", "save"), "voiopt.instance"),
     "OBJECTIVES": "voiopt.objectives",
     "Policy": "voiopt.core.policy",
+    "expected_metrics": "voiopt.core.expectation",
     **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.plan"),
     **dict.fromkeys(("Result", "load_result"), "voiopt.result"),
     **dict.fromkeys(("Trajectory", "evaluate", "simulate"), "voiopt.simulate"),
@@ -72,5 +73,6 @@ sys.modules[__name__].__class__ = _Package
 __all__ = [
     "Channel", "FleetPlan", "Instance", "InstanceError", "Links", "METHODS", "OBJECTIVES", "OptionError", "Plan",
     "PlanError", "Policy", "Result", "Robot", "Sensor", "Trajectory", "VoioptError", "case_study", "evaluate",
+    "expected_metrics",
     "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
 ]

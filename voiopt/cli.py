@@ -219,7 +219,7 @@ def cmd_solve(args) -> int:
         print(dumps_json(result.to_dict()))
     elif not args.quiet:
         out.print(result.summary(), markup=False)
-        out.print(_metrics_table({result.method: result.metrics}) if result.metrics else
+        out.print(_metrics_table({result.method: result.metrics}, cli_lossy.solve_title(inst)) if result.metrics else
                   f"no plan{': ' + result.solver['note'] if result.solver.get('note') else ''}", markup=False)
         if args.output:
             out.print(f"result written to {args.output}", markup=False)

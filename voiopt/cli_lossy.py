@@ -56,6 +56,11 @@ def title(instance: Instance) -> str:
     return f"{instance.name}: expected objectives over the upload outcomes (exact, lossy links)"
 
 
+def solve_title(instance: Instance) -> str:
+    """``solve``'s metrics table is untitled, but on a lossy instance it says what its numbers are."""
+    return title(instance) if is_lossy(instance) else ""
+
+
 def evaluation_json(instance: Instance, values: dict[str, float]) -> dict[str, Any]:
     """``evaluate --json``'s object: on a lossy instance it says that the metrics are exact expectations."""
     out: dict[str, Any] = {"instance": instance.name, "metrics": values}

@@ -51,6 +51,7 @@ except ImportError as e:  # pragma: no cover - depends on the installed extras
 
 from voiopt import instance as instance_mod
 from voiopt import lattice as lattice_mod
+from voiopt.env_links import Outcomes
 from voiopt.generate import generate as generate_network
 from voiopt.instance import Instance
 from voiopt.models import mdp as mdp_mod
@@ -164,6 +165,7 @@ class VoIEnv(gym.Env):
         self.model = mdp_mod.build(instance, self.options["reward"], self.options["penalty"],
                                    reward_units=self.options["reward_units"])
         self.lattice = lat = lattice_mod.build(instance)
+        self._outcomes = Outcomes(instance)  # MODEL.md section 11: upload outcomes, drawn only when lossy
         N = instance.n_sensors
         self._local = np.full((lat.n_points, (N + 1) * 5), -1, dtype=np.int64)  # global -> per-point action
         for p in range(lat.n_points):
@@ -268,10 +270,14 @@ class VoIEnv(gym.Env):
                 move = next(m for m in range(5) if self.lattice.neighbors[p, m] == home)
             k = int(self._local[p, move])
         u = int(self.model.action_upload[p, k])
+        outcome = self._outcomes.draw(self.np_random, [p], [u])
+        if Outcomes.failed(outcome):  # a failed upload acts as no upload, with the same move
+            k = int(self._local[p, a % 5])
         self._positions.append(p)
         self._schedule.append(u)
         self._idle += u < 0
         self.state, reward = self.model.step(self.state, k)
+        reward = Outcomes.refunded(reward, outcome, self.options["penalty"])
         if self.reward_mode == "normalised":
             _, aoi, qidx, *_ = self.state
             reward = min(float(self.model.voi_reward[i, a_, q]) for i, (a_, q) in enumerate(zip(aoi, qidx, strict=True)))
@@ -283,7 +289,7 @@ class VoIEnv(gym.Env):
             self._penalised += 1
         self.t += 1
         terminated = self.t >= self.instance.horizon
-        info = self._info()
+        info = self._info() | self._outcomes.info(outcome)
         info["infeasible"] = not feasible
         return self._obs(), float(reward), terminated, False, info
 
@@ -399,6 +405,7 @@ class FleetVoIEnv(VoIEnv):
                                      reward_units=self.options["reward_units"])
         self.model = self.joint.one
         self.lattice = lattice_mod.build(instance)
+        self._outcomes = Outcomes(instance)
         self._global = np.array([[(u + 1) * 5 + m for u, m in self.model.actions(p)] + [-1] * (self.model.max_actions
                                  - int(self.model.n_actions[p])) for p in range(self.lattice.n_points)], dtype=np.int64)
         self._max_age = float(self.model.initial_aoi.max() + instance.horizon)
@@ -473,12 +480,16 @@ class FleetVoIEnv(VoIEnv):
             self._positions[k].append(p)
             self._schedule[k].append(u)
             self._idle += u < 0
+        outcome = self._outcomes.draw(self.np_random, points, [s[-1] for s in self._schedule])
+        if Outcomes.failed(outcome):  # each failed upload acts as its robot's move alone
+            j = self._mdp_number([m % 5 if ok is False else m for m, ok in zip(self.split_action(self._env_number(j)), outcome, strict=True)])
         self.state, reward = self.joint.step(self.state, j)
+        reward = Outcomes.refunded(reward, outcome, self.options["penalty"])
         if not feasible:
             reward -= self.options["penalty"]
             self._penalised += 1
         self.t += 1
-        info = self._info()
+        info = self._info() | self._outcomes.info(outcome)
         info["infeasible"] = not feasible
         return self._obs(), float(reward), self.t >= self.instance.horizon, False, info
 

@@ -258,6 +258,7 @@ def _check_channel(ck: _Checker, ch: dict) -> Channel | None:
 
 
 _SENSOR_FIELDS = frozenset({"position", "rho", "power_w", "initial_aoi", "initial_distance", "success"})
+_SENSOR_REQUIRED = ("position", "rho")
 LINK_MODELS = {"bernoulli": "success", "rayleigh": "snr_threshold_db"}  # each model's own field
 
 
@@ -287,7 +288,6 @@ def _check_links(ck: _Checker, raw: Any) -> Links | None:
     if value is None:
         return None
     return Links(model, success=value) if model == "bernoulli" else Links(model, snr_threshold_db=value)
-_SENSOR_REQUIRED = ("position", "rho")
 
 
 def from_dict(d: Any, source: str = "") -> Instance:

@@ -14,6 +14,8 @@ import numpy as np
 from voiopt import instance as instance_mod
 from voiopt import lattice as lattice_mod
 from voiopt._files import atomic_write, write_csv
+from voiopt.core.expectation import expected_metrics
+from voiopt.core.links import is_lossy
 from voiopt.errors import OptionError
 from voiopt.generate import case_study
 from voiopt.instance import Instance
@@ -175,24 +177,29 @@ def plot_result(result: Result, instance: Instance, path: str | os.PathLike, whe
     and its status cannot be put in a title."""
     if result.plan is None:
         raise OptionError(f"RESULT: the result has no plan (status {result.status})")
-    metrics = simulate(instance, result.plan).metrics  # re-simulated: the file is not trusted
+    metrics = expected_metrics(instance, result.plan)  # re-simulated (exact expectations if lossy): not trusted
     differ = disagreement(result.metrics, metrics) or disagreement({result.objective: result.value}, metrics)
     if differ:
         raise OptionError(f"RESULT: its plan on {where} does not give what the result says ({differ}): give the "
                           "instance it was solved on with --instance (or the file was edited)")
     fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
-    title = f"{instance.name} — {result.method}, {result.objective} = {metrics[result.objective]:.4g} ({result.status})"
+    title = f"{instance.name} — {result.method}, {_expected(instance)}{result.objective} = {metrics[result.objective]:.4g} ({result.status})"
     draw_plan(ax, instance, result.plan, title)
     save_figure(fig, path)
+
+
+def _expected(instance: Instance) -> str:
+    """How a title names a value: an exact expectation on a lossy instance (MODEL.md section 11)."""
+    return "expected " if is_lossy(instance) else ""
 
 
 def plot_plan(instance: Instance, plan: Plan | FleetPlan, path: str | os.PathLike, label: str,
               objective: str = OBJECTIVE) -> None:
     """``voiopt plot`` of a plan file (no result around it): its trajectory, with its simulated
     ``objective`` in the title."""
-    value = simulate(instance, plan).metrics[objective]
+    value = expected_metrics(instance, plan)[objective]
     fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
-    draw_plan(ax, instance, plan, f"{instance.name} — {label}, {objective} = {value:.4g}")
+    draw_plan(ax, instance, plan, f"{instance.name} — {label}, {_expected(instance)}{objective} = {value:.4g}")
     save_figure(fig, path)
 
 

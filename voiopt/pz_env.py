@@ -24,7 +24,9 @@ agent's own reward is that less ``penalty`` (the others' are not reduced): its i
 ``"replaced": true`` with the action executed. The executed joint action is always legal, so
 ``plan()`` is always a legal plan. An action that is missing, not an integer or outside the
 agent's space is refused (OptionError), as is a step outside an episode. All agents end
-together after T steps.
+together after T steps. On a lossy instance (MODEL.md section 11) each agent's info holds its
+robot's ``upload_success`` (True, False, or None where it uploaded nothing), drawn by the env
+with its seed (voiopt.env_links).
 """
 
 from __future__ import annotations
@@ -148,6 +150,10 @@ class VoIParallelEnv(ParallelEnv):
         rewards = {a: reward - (self.penalty if r else 0.0) for a, r in zip(self.possible_agents, replaced, strict=True)}
         infos = {a: {"slot": info["slot"], "replaced": r, "executed": int(x), "idle_slots": info["idle_slots"]}
                  for a, r, x in zip(self.possible_agents, replaced, joint, strict=True)}
+        if "upload_success" in info:  # MODEL.md section 11: each robot's outcome (None: no upload)
+            got = info["upload_success"]
+            for k, agent in enumerate(self.possible_agents):
+                infos[agent]["upload_success"] = got[k] if isinstance(got, list) else got
         observations = self._observations(obs)
         done = dict.fromkeys(self.agents, bool(terminated))
         cut = dict.fromkeys(self.agents, bool(truncated))

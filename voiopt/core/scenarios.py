@@ -20,7 +20,9 @@ from voiopt.errors import OptionError
 from voiopt.instance import Instance, show
 from voiopt.objectives import check_objective
 from voiopt.plan import FleetPlan, Plan
+from voiopt.progress import progress_bar
 from voiopt.simulate import check_plan, simulate, simulate_indices
+from voiopt.stop import Stop, Stopped, halt_if_asked
 
 CONFIDENCE = 0.95
 
@@ -38,18 +40,19 @@ def sample_scenarios(instance: Instance, count: int, seed: int) -> np.ndarray:
     """(count, T, N) uniforms U(t, i) in [0, 1), from numpy's default Generator seeded with
     ``seed``: the same seed gives the same scenarios, and scenario k is the same whatever
     ``count`` is (drawn row by row)."""
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
         raise OptionError(f"count: must be an integer >= 1, got {show(count)}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise OptionError(f"seed: must be an integer >= 0, got {show(seed)}")
     rng = np.random.default_rng(seed)
     return rng.random((count, instance.horizon, instance.n_sensors))
 
 
-def successes(instance: Instance, idx: np.ndarray, sched: np.ndarray, u_row: np.ndarray) -> np.ndarray:
+def successes(instance: Instance, idx: np.ndarray, sched: np.ndarray, u_row: np.ndarray,
+              table: np.ndarray | None = None) -> np.ndarray:
     """Bool array of sched's shape: True where an upload is scheduled and succeeds in scenario
-    ``u_row`` ((T, N) uniforms), U(t, i) < p_i(d)."""
-    table = success_table(instance, lattice_mod.build(instance))
+    ``u_row`` ((T, N) uniforms), U(t, i) < p_i(d) (``table``: the instance's success_table)."""
+    table = success_table(instance, lattice_mod.build(instance)) if table is None else table
     t = np.broadcast_to(np.arange(instance.horizon), sched.shape)
     up = sched >= 0
     out = np.zeros(sched.shape, dtype=bool)
@@ -67,11 +70,13 @@ def realise(instance: Instance, plan: Plan | FleetPlan, u_row: np.ndarray) -> Pl
 
 
 def monte_carlo(instance: Instance, plan_or_run: Plan | FleetPlan | Callable[[np.ndarray], Plan | FleetPlan],
-                scenarios: np.ndarray, objective: str) -> Estimate:
+                scenarios: np.ndarray, objective: str, *, stop: Stop | None = None, progress: bool = False) -> Estimate:
     """The mean of ``objective`` over the scenarios, with its 95 % Student-t CI. Given a plan,
     each scenario's realised plan is simulated; given a function (a policy's run), it is called
     with each scenario's (T, N) uniforms and must return the realised lossless plan of that run
-    (checked and simulated here)."""
+    (checked and simulated here). ``stop`` (voiopt.stop.Stop: time, memory, Ctrl-C) is checked
+    between scenarios; once it stops, the estimate is over the scenarios done (its ``count``
+    says how many), or voiopt.stop.Stopped if fewer than two were."""
     check_objective(objective)
     scenarios = np.asarray(scenarios, dtype=float)
     if scenarios.ndim != 3 or scenarios.shape[1:] != (instance.horizon, instance.n_sensors) or len(scenarios) < 2:
@@ -79,21 +84,38 @@ def monte_carlo(instance: Instance, plan_or_run: Plan | FleetPlan | Callable[[np
                           f"got shape {scenarios.shape}")
     if isinstance(plan_or_run, (Plan, FleetPlan)):
         idx, sched = check_plan(instance, plan_or_run)
-        values = [simulate_indices(instance, idx, np.where(successes(instance, idx, sched, u), sched, -1)).metrics[objective]
-                  for u in scenarios]
+        table = success_table(instance, lattice_mod.build(instance))
+
+        def value(u: np.ndarray) -> float:
+            return simulate_indices(instance, idx, np.where(successes(instance, idx, sched, u, table), sched, -1)
+                                    ).metrics[objective]
     else:
-        values = [simulate(instance, plan_or_run(u)).metrics[objective] for u in scenarios]
+        def value(u: np.ndarray) -> float:
+            return simulate(instance, plan_or_run(u)).metrics[objective]
+    values: list[float] = []
+    with progress_bar(progress) as bar:
+        task = bar.add_task("monte carlo", total=len(scenarios))
+        for u in scenarios:
+            try:
+                halt_if_asked(stop)
+            except Stopped:
+                if len(values) < 2:
+                    raise
+                break
+            values.append(value(u))
+            bar.advance(task)
     return estimate(values)
 
 
 def estimate(values) -> Estimate:
     """Mean and two-sided 95 % Student-t confidence interval of i.i.d. samples (at least 2)."""
-    from scipy import stats
+    # the Student-t quantile; scipy.stats would take seconds to import
+    from scipy.special import stdtrit
 
     x = np.asarray(values, dtype=float)
     n = len(x)
     mean = float(x.mean())
-    half = float(stats.t.ppf(0.5 + CONFIDENCE / 2, n - 1) * x.std(ddof=1) / math.sqrt(n))
+    half = float(stdtrit(n - 1, 0.5 + CONFIDENCE / 2) * x.std(ddof=1) / math.sqrt(n))
     return Estimate(mean, (mean - half, mean + half), n)
 
 

@@ -12,11 +12,11 @@ import inspect
 from typing import Any
 
 from voiopt import instance as instance_mod
-from voiopt.core.links import is_lossy, without_links
 from voiopt.errors import OptionError
 from voiopt.instance import Instance
 from voiopt.objectives import DEFAULT, check_objective
 from voiopt.result import Result
+from voiopt.solvers import lossy_plans
 
 # method name -> (module, function); each function is
 #   solve(instance, objective, *, progress=False, <its own keyword options>) -> Result
@@ -55,7 +55,8 @@ def solver_function(method: str):
     if method not in METHODS:
         raise OptionError(f"method: unknown method {method!r} (choose from {', '.join(METHODS)})")
     module, function = METHODS[method]
-    return getattr(importlib.import_module(module), function)
+    fn = getattr(importlib.import_module(module), function)
+    return fn if method in POLICY_METHODS else lossy_plans.plan_method(fn)  # MODEL.md 11: a plan, valued exactly
 
 
 DP_MAX_ROBOTS = 2  # dp plans jointly for at most this many robots (fleet_dp.MAX_ROBOTS)
@@ -83,8 +84,4 @@ def solve(instance: Instance, method: str | None = None, objective: str = DEFAUL
                 takes = [k for k, p in params.items() if p.kind is p.KEYWORD_ONLY and k != "progress"]
                 raise OptionError(f"--{key.replace('_', '-')} ({key}= in Python): not an option of method {method!r} "
                                   f"(it takes {', '.join(takes)})")
-    if is_lossy(instance) and method not in POLICY_METHODS:  # a plan on lossy links: solved lossless, valued exactly
-        from voiopt.solvers.lossy_plans import plan_result
-
-        return plan_result(instance, fn(without_links(instance), objective, **options))
     return fn(instance, objective, **options)

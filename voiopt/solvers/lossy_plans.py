@@ -1,5 +1,5 @@
 """Plan methods on lossy instances (MODEL.md section 11): a plan method solves the lossless
-problem, and its plan is valued by its exact expected objectives.
+problem, and its plan is valued by its exact expected objectives (``plan_method``).
 
 A plan is open-loop, not a policy, so a plan method never claims ``optimal`` on a lossy
 instance: its status becomes ``feasible`` (or stays the limit that stopped it). Its bound is
@@ -9,9 +9,28 @@ plan), labelled ``lossless``; a heuristic without one has none.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
+
 from voiopt.core.expectation import expected_metrics
+from voiopt.core.links import is_lossy, without_links
 from voiopt.instance import Instance
 from voiopt.result import Result
+
+
+def plan_method(fn: Callable[..., Result]) -> Callable[..., Result]:
+    """A plan method's ``solve(instance, objective, **options)`` that, on a lossy instance, solves
+    the lossless instance and values its plan exactly (``plan_result``); on any other instance
+    it is ``fn`` itself, call for call. The registry (``solvers.solver_function``) hands out
+    every plan method wrapped so, so that no caller can skip it."""
+
+    @functools.wraps(fn)
+    def solve(instance: Instance, objective: str, **options) -> Result:
+        if not is_lossy(instance):
+            return fn(instance, objective, **options)
+        return plan_result(instance, fn(without_links(instance), objective, **options))
+
+    return solve
 
 
 def plan_result(instance: Instance, lossless: Result) -> Result:
