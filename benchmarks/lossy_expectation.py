@@ -17,8 +17,8 @@ import time
 
 import voiopt
 from voiopt.core.expectation import expected_metrics
+from voiopt.core.instance import from_dict
 from voiopt.core.scenarios import monte_carlo, sample_scenarios
-from voiopt.instance import from_dict
 
 
 def main(argv: list[str] | None = None) -> int:

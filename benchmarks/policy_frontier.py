@@ -12,8 +12,8 @@ import argparse
 import time
 
 import voiopt
-from voiopt.generate import generate
-from voiopt.instance import from_dict
+from voiopt.core.instance import from_dict
+from voiopt.networks.generate import generate
 
 LINKS = {"model": "bernoulli", "success": 0.7}
 

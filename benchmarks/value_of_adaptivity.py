@@ -15,8 +15,8 @@ import argparse
 from pathlib import Path
 
 import voiopt
-from voiopt._files import atomic_write
-from voiopt.instance import from_dict
+from voiopt.core.instance import from_dict
+from voiopt.runtime.files import atomic_write
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "value_of_adaptivity.md"
 

@@ -18,7 +18,7 @@ from oracles import model_oracle as oracle
 
 import voiopt
 from voiopt.core.expectation import expected_metrics
-from voiopt.instance import from_dict
+from voiopt.core.instance import from_dict
 
 NAMES = ("min-voi", "mean-min-voi", "max-aoi", "mean-max-aoi")
 

@@ -17,10 +17,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from voiopt import lattice
+from voiopt.core.instance import Links, from_dict
 from voiopt.core.links import is_lossy, success_probability, success_table
 from voiopt.errors import InstanceError
-from voiopt.instance import Links, from_dict
+from voiopt.grid import lattice
 
 SCHEMA = json.loads((Path(__file__).parent.parent / "docs" / "instance.schema.json").read_text())
 VALIDATOR = jsonschema.Draft202012Validator(SCHEMA)  # built once: the property tests validate hundreds

@@ -9,8 +9,8 @@ import pytest
 from conftest import ROOT
 
 import voiopt
-from voiopt.cli import main
-from voiopt.cli_lossy import parse_links
+from voiopt.cli.lossy import parse_links
+from voiopt.cli.main import main
 from voiopt.core.expectation import expected_metrics
 from voiopt.errors import OptionError
 

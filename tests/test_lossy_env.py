@@ -10,11 +10,11 @@ from conftest import ROOT, fleet_instances
 
 import voiopt
 import voiopt.env as voienv
+from voiopt.core.instance import from_dict
 from voiopt.core.links import success_probability
-from voiopt.instance import from_dict
-from voiopt.plan import FleetPlan, Plan
+from voiopt.core.plan import FleetPlan, Plan
+from voiopt.core.simulate import simulate
 from voiopt.pz_env import parallel_env
-from voiopt.simulate import simulate
 
 PENALTY = 100.0
 

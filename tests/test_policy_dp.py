@@ -8,11 +8,11 @@ import pytest
 from oracles.expectimax import oracle, tiny
 
 import voiopt
+from voiopt.core.instance import from_dict
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import exact_value, monte_carlo_value
 from voiopt.core.scenarios import sample_scenarios
 from voiopt.errors import OptionError
-from voiopt.instance import from_dict
 
 CASES = [
     (1, 2, 4, {"model": "bernoulli", "success": 0.6}, {}),
@@ -90,7 +90,7 @@ def test_monte_carlo_agrees_with_exact_within_its_ci():
 
 
 def test_cli_saves_the_policy_beside_the_result(tmp_path, capsys):
-    from voiopt.cli import main
+    from voiopt.cli.main import main
 
     inst_path = tmp_path / "tiny.json"
     voiopt.save(from_dict(tiny(1, 2, 4, {"model": "bernoulli", "success": 0.6})), inst_path)

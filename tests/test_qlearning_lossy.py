@@ -8,9 +8,9 @@ import pytest
 from oracles.expectimax import oracle, tiny
 
 import voiopt
+from voiopt.core.instance import from_dict
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import exact_value
-from voiopt.instance import from_dict
 
 
 @pytest.mark.parametrize(("method", "objective"), [("qlearning", "mean-min-voi"), ("aoi-qlearning", "mean-max-aoi")])

@@ -9,10 +9,10 @@ import pytest
 from oracles.expectimax import tiny
 
 import voiopt
+from voiopt.core.instance import from_dict
 from voiopt.core.policy_value import run
 from voiopt.core.scenarios import sample_scenarios
-from voiopt.instance import from_dict
-from voiopt.simulate import simulate
+from voiopt.core.simulate import simulate
 from voiopt.solvers.policy.relaxation import information_relaxation, scenario_optimum
 
 

@@ -8,9 +8,9 @@ import pytest
 from oracles.expectimax import oracle, tiny
 
 import voiopt
+from voiopt.core.instance import from_dict
 from voiopt.core.policy_value import exact_value, monte_carlo_value
 from voiopt.core.scenarios import sample_scenarios
-from voiopt.instance import from_dict
 
 
 @pytest.mark.parametrize("objective", ["mean-min-voi", "mean-max-aoi"])

@@ -9,12 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import voiopt
-from voiopt import lattice
 from voiopt.core.expectation import expected_metrics
+from voiopt.core.instance import from_dict
 from voiopt.core.links import success_probability
 from voiopt.core.scenarios import estimate, monte_carlo, realise, sample_scenarios
 from voiopt.errors import OptionError
-from voiopt.instance import from_dict
+from voiopt.grid import lattice
 
 
 def lossy(inst, links=None):
@@ -119,7 +119,7 @@ def test_bad_scenarios_are_option_errors(case):
 
 
 def test_a_stop_ends_monte_carlo_with_the_scenarios_done(case):
-    from voiopt.stop import Stop, Stopped
+    from voiopt.runtime.stop import Stop, Stopped
 
     inst, plan = case
     scen = sample_scenarios(inst, 50, seed=9)

@@ -26,7 +26,7 @@ agent's own reward is that less ``penalty`` (the others' are not reduced): its i
 agent's space is refused (OptionError), as is a step outside an episode. All agents end
 together after T steps. On a lossy instance (MODEL.md section 11) each agent's info holds its
 robot's ``upload_success`` (True, False, or None where it uploaded nothing), drawn by the env
-with its seed (voiopt.env_links).
+with its seed (voiopt.mdp.outcomes).
 """
 
 from __future__ import annotations
@@ -43,10 +43,10 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the installed extras
     raise MissingExtraError(e.name or "pettingzoo", "rl") from e
 
+from voiopt.core.instance import Instance
+from voiopt.core.plan import FleetPlan, Plan
 from voiopt.env import VoIEnv, as_integer, reset_options
-from voiopt.instance import Instance
-from voiopt.models import mdp as mdp_mod
-from voiopt.plan import FleetPlan, Plan
+from voiopt.mdp import robot as mdp_mod
 
 
 class VoIParallelEnv(ParallelEnv):

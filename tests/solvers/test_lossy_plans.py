@@ -13,7 +13,7 @@ from oracles import model_oracle as oracle
 
 import voiopt
 from voiopt.core.expectation import expected_metrics
-from voiopt.instance import from_dict
+from voiopt.core.instance import from_dict
 from voiopt.objectives import OBJECTIVES
 
 PLAN_METHODS = ("dp", "milp", "beam", "greedy", "shortest-path")
@@ -119,7 +119,7 @@ def test_every_caller_of_the_registry_gets_the_lossy_valuation(case_study):
     import inspect
 
     from voiopt.solvers import METHODS, POLICY_METHODS, solver_function
-    from voiopt.solvers.baselines import greedy
+    from voiopt.solvers.baselines.heuristics import greedy
 
     fn = solver_function("greedy")
     assert inspect.signature(fn) == inspect.signature(greedy)
@@ -137,8 +137,8 @@ def expectimax(inst, objective: str) -> float:
     slot every legal (upload, move), each upload succeeding with its probability, the realised
     lossless plan valued by the simulator at the end. History-dependent, so it is optimal for the
     bottleneck objectives too."""
-    from voiopt import lattice
     from voiopt.core.links import success_probability
+    from voiopt.grid import lattice
 
     lat = lattice.build(inst)
     T, maximise = inst.horizon, OBJECTIVES[objective] == "max"

@@ -21,12 +21,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
-from voiopt import objectives, physics
+from voiopt import objectives
+from voiopt.core import physics
+from voiopt.core.instance import Instance
 from voiopt.core.links import is_lossy, success_probability
-from voiopt.instance import Instance
-from voiopt.plan import FleetPlan, Plan
-from voiopt.simulate import check_plan, simulate_indices
+from voiopt.core.plan import FleetPlan, Plan
+from voiopt.core.simulate import check_plan, simulate_indices
+from voiopt.grid import lattice as lattice_mod
 
 BLOCK = 1 << 22  # entries of one step of the bottleneck DP (uploads x candidate values), at most
 

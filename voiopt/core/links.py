@@ -18,9 +18,9 @@ import math
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
-from voiopt import physics
-from voiopt.instance import Instance
+from voiopt.core import physics
+from voiopt.core.instance import Instance
+from voiopt.grid import lattice as lattice_mod
 
 LN10_OVER_10 = math.log(10.0) / 10.0
 
@@ -66,7 +66,7 @@ def _fixed(instance: Instance, sensor: int) -> float | None:
 
 def success_table(instance: Instance, lat=None) -> np.ndarray:
     """(lattice points, N) float64: p_i at each lattice point for each sensor in range there,
-    0.0 where the sensor is out of range (``lat`` is ``voiopt.lattice.build(instance)``)."""
+    0.0 where the sensor is out of range (``lat`` is ``voiopt.grid.lattice.build(instance)``)."""
     lat = lattice_mod.build(instance) if lat is None else lat
     out = np.zeros((lat.n_points, instance.n_sensors))
     for i in range(instance.n_sensors):

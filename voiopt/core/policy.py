@@ -33,15 +33,15 @@ from __future__ import annotations
 import os
 from typing import Any, NamedTuple
 
-from voiopt import instance as instance_mod
 from voiopt import objectives
-from voiopt._files import read_json, write_json_atomic
+from voiopt.core import instance as instance_mod
+from voiopt.core.instance import Instance, show
+from voiopt.core.plan import Plan
+from voiopt.core.simulate import check_plan
 from voiopt.core.steps import MOVE_NAMES, Steps
 from voiopt.errors import VoioptError
-from voiopt.instance import Instance, show
 from voiopt.objectives import check_objective
-from voiopt.plan import Plan
-from voiopt.simulate import check_plan
+from voiopt.runtime.files import read_json, write_json_atomic
 
 FORMAT, VERSION = "voiopt-policy", 1
 DIGITS = 9  # distances are matched to this many decimals

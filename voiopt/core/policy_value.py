@@ -14,10 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt import objectives
+from voiopt.core.plan import Plan
 from voiopt.core.policy import Policy
 from voiopt.core.scenarios import Estimate, monte_carlo, sample_scenarios
 from voiopt.errors import OptionError
-from voiopt.plan import Plan
 
 MAX_STATES = 200_000  # states of one slot past which a policy's value is estimated instead
 DEFAULT_SAMPLES = 1000

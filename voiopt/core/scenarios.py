@@ -14,15 +14,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
+from voiopt.core.instance import Instance, show
 from voiopt.core.links import success_table
+from voiopt.core.plan import FleetPlan, Plan
+from voiopt.core.simulate import check_plan, simulate, simulate_indices
 from voiopt.errors import OptionError
-from voiopt.instance import Instance, show
+from voiopt.grid import lattice as lattice_mod
 from voiopt.objectives import check_objective
-from voiopt.plan import FleetPlan, Plan
-from voiopt.progress import progress_bar
-from voiopt.simulate import check_plan, simulate, simulate_indices
-from voiopt.stop import Stop, Stopped, halt_if_asked
+from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.stop import Stop, Stopped, halt_if_asked
 
 CONFIDENCE = 0.95
 
@@ -74,9 +74,9 @@ def monte_carlo(instance: Instance, plan_or_run: Plan | FleetPlan | Callable[[np
     """The mean of ``objective`` over the scenarios, with its 95 % Student-t CI. Given a plan,
     each scenario's realised plan is simulated; given a function (a policy's run), it is called
     with each scenario's (T, N) uniforms and must return the realised lossless plan of that run
-    (checked and simulated here). ``stop`` (voiopt.stop.Stop: time, memory, Ctrl-C) is checked
+    (checked and simulated here). ``stop`` (voiopt.runtime.stop.Stop: time, memory, Ctrl-C) is checked
     between scenarios; once it stops, the estimate is over the scenarios done (its ``count``
-    says how many), or voiopt.stop.Stopped if fewer than two were."""
+    says how many), or voiopt.runtime.stop.Stopped if fewer than two were."""
     check_objective(objective)
     scenarios = np.asarray(scenarios, dtype=float)
     if scenarios.ndim != 3 or scenarios.shape[1:] != (instance.horizon, instance.n_sensors) or len(scenarios) < 2:

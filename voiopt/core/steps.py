@@ -4,7 +4,7 @@ state that a policy acts on.
 A state is the tuple (point index, moves used, ages A, distances q): the moves used are 0
 where ``max_moves`` is not set (they decide nothing then), and q is () for a model that
 values AoI only (``voi=False``), whose rewards never read it. An action is (u, m): u a sensor
-index or -1 for none, m an index into ``voiopt.lattice.MOVES`` (stay, N, S, E, W); in the
+index or -1 for none, m an index into ``voiopt.grid.lattice.MOVES`` (stay, N, S, E, W); in the
 last slot only staying is offered (p(T) is not part of a plan). An upload of u from point p
 in slot t succeeds with probability ``succ[t, p, u]``; a failure leaves u as if unscheduled.
 
@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
-from voiopt import physics
+from voiopt.core import physics
+from voiopt.core.instance import Instance
 from voiopt.core.links import success_table
-from voiopt.instance import Instance
+from voiopt.grid import lattice as lattice_mod
 
-MOVE_NAMES = ("stay", "N", "S", "E", "W")  # the order of voiopt.lattice.MOVES
+MOVE_NAMES = ("stay", "N", "S", "E", "W")  # the order of voiopt.grid.lattice.MOVES
 
 
 class Steps:

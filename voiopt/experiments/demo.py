@@ -13,14 +13,15 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from voiopt import instance, objectives
-from voiopt._files import safe_name
-from voiopt.generate import case_study, case_study_plan
+from voiopt import objectives
+from voiopt.core import instance
+from voiopt.core.result import Result
+from voiopt.networks.generate import case_study, case_study_plan
 from voiopt.objectives import DEFAULT as OBJECTIVE
 from voiopt.objectives import OBJECTIVES
-from voiopt.result import Result
+from voiopt.runtime.files import safe_name
+from voiopt.runtime.stop import Interrupted, watch
 from voiopt.solvers import RANDOMISED, solve
-from voiopt.stop import Interrupted, watch
 
 SEEDS = (0, 1, 2)
 RUNS = [  # (label, method, what it is, options)

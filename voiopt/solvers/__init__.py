@@ -11,23 +11,24 @@ import importlib
 import inspect
 from typing import Any
 
-from voiopt import instance as instance_mod
+from voiopt.core import instance as instance_mod
+from voiopt.core.instance import Instance
+from voiopt.core.result import Result
 from voiopt.errors import OptionError
-from voiopt.instance import Instance
 from voiopt.objectives import DEFAULT, check_objective
-from voiopt.result import Result
 from voiopt.solvers import lossy_plans
+from voiopt.solvers.base import DP_MAX_ROBOTS
 
 # method name -> (module, function); each function is
 #   solve(instance, objective, *, progress=False, <its own keyword options>) -> Result
 METHODS: dict[str, tuple[str, str]] = {
-    "milp": ("voiopt.solvers.milp", "solve"),
-    "dp": ("voiopt.solvers.dp", "solve"),
+    "milp": ("voiopt.solvers.milp.solver", "solve"),
+    "dp": ("voiopt.solvers.dp.solver", "solve"),
     "qlearning": ("voiopt.solvers.qlearning", "solve"),
     "aoi-qlearning": ("voiopt.solvers.qlearning", "solve_aoi"),
-    "shortest-path": ("voiopt.solvers.baselines", "shortest_path"),
-    "greedy": ("voiopt.solvers.baselines", "greedy"),
-    "beam": ("voiopt.solvers.beam", "solve"),
+    "shortest-path": ("voiopt.solvers.baselines.heuristics", "shortest_path"),
+    "greedy": ("voiopt.solvers.baselines.heuristics", "greedy"),
+    "beam": ("voiopt.solvers.dp.beam", "solve"),
     "policy-dp": ("voiopt.solvers.policy.solver", "solve"),
     "replan": ("voiopt.solvers.policy.replan", "solve"),
 }
@@ -57,9 +58,6 @@ def solver_function(method: str):
     module, function = METHODS[method]
     fn = getattr(importlib.import_module(module), function)
     return fn if method in POLICY_METHODS else lossy_plans.plan_method(fn)  # MODEL.md 11: a plan, valued exactly
-
-
-DP_MAX_ROBOTS = 2  # dp plans jointly for at most this many robots (fleet_dp.MAX_ROBOTS)
 
 
 def default_method(instance: Instance) -> str:

@@ -13,9 +13,9 @@ import functools
 from collections.abc import Callable
 
 from voiopt.core.expectation import expected_metrics
+from voiopt.core.instance import Instance
 from voiopt.core.links import is_lossy, without_links
-from voiopt.instance import Instance
-from voiopt.result import Result
+from voiopt.core.result import Result
 
 
 def plan_method(fn: Callable[..., Result]) -> Callable[..., Result]:

@@ -20,10 +20,10 @@ import sys
 import numpy as np
 
 from voiopt import objectives
+from voiopt.core.instance import Instance
 from voiopt.core.policy_value import AVERAGED
 from voiopt.core.steps import Steps
-from voiopt.instance import Instance
-from voiopt.stop import Stop, Stopped
+from voiopt.runtime.stop import Stop, Stopped
 
 CHECK_EVERY = 4096  # new states between two looks at the stop rule
 STATE_BYTES = 260  # a memoised state: dict entry, key tuples and value pair, about (N = 3)

@@ -20,14 +20,14 @@ import math
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
 from voiopt import objectives
+from voiopt.core.instance import Instance
 from voiopt.core.links import success_table
 from voiopt.core.scenarios import sample_scenarios
 from voiopt.errors import OptionError
-from voiopt.instance import Instance
+from voiopt.grid import lattice as lattice_mod
+from voiopt.runtime.stop import Stop, Stopped
 from voiopt.solvers.policy.expectimax import Expectimax
-from voiopt.stop import Stop, Stopped
 
 CONFIDENCE = 0.95
 DEFAULT_SAMPLES = 100

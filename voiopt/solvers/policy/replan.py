@@ -18,16 +18,16 @@ from __future__ import annotations
 import dataclasses
 import time
 
+from voiopt.core.instance import Instance
 from voiopt.core.links import without_links
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
 from voiopt.errors import OptionError
-from voiopt.instance import Instance
+from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 from voiopt.solvers.policy.relaxation import information_relaxation
 from voiopt.solvers.policy.report import policy_result
 from voiopt.solvers.policy.solver import check_averaged
-from voiopt.stop import Stopped, watch
 
 PLANNERS = ("dp", "beam")
 EXACT_STATES = 2000  # states of a slot up to which replan's value is computed exactly
@@ -53,7 +53,8 @@ class ReplanPolicy(Policy):
         return hit
 
     def _replan(self, t: int, state: tuple) -> tuple[int, int]:
-        from voiopt.solvers import beam, dp
+        from voiopt.solvers.dp import beam
+        from voiopt.solvers.dp import solver as dp
 
         p, k, ages, qs = state
         lat = self.steps.lat
@@ -116,6 +117,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
 
 
 def _lossless(instance: Instance, objective: str, planner: str):
-    from voiopt.solvers import beam, dp
+    from voiopt.solvers.dp import beam
+    from voiopt.solvers.dp import solver as dp
 
     return (dp.solve if planner == "dp" else beam.solve)(without_links(instance), objective)

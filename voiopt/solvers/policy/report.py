@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from voiopt.core.instance import Instance
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import AVERAGED, exact_value
-from voiopt.instance import Instance
-from voiopt.result import Result
+from voiopt.core.result import Result
 
 
 def policy_result(instance: Instance, method: str, objective: str, policy: Policy, evaluation: dict, *,

@@ -16,17 +16,17 @@ from __future__ import annotations
 import time
 
 from voiopt.core.expectation import expected_metrics
+from voiopt.core.instance import Instance
 from voiopt.core.links import without_links
 from voiopt.core.policy import Policy, table_of
 from voiopt.core.policy_value import exact_value
 from voiopt.errors import OptionError
-from voiopt.instance import Instance
 from voiopt.objectives import check_objective
-from voiopt.progress import progress_bar
+from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 from voiopt.solvers.policy.expectimax import AVERAGED, Expectimax
 from voiopt.solvers.policy.report import policy_result
-from voiopt.stop import Stopped, watch
 
 LOSSLESS_SHARE = 0.25  # of a time limit, the most the lossless dp may take
 
@@ -40,7 +40,7 @@ def check_averaged(objective: str, method: str) -> None:
 
 def lossless_optimum(instance: Instance, objective: str, time_limit: float | None, memory_limit: float):
     """dp's result on the instance without links: its plan and its proven bound."""
-    from voiopt.solvers import dp
+    from voiopt.solvers.dp import solver as dp
 
     return dp.solve(without_links(instance), objective, time_limit=time_limit, memory_limit=memory_limit)
 

@@ -1,5 +1,5 @@
 """Q-learning on lossy links (MODEL.md sections 7 and 11): Algorithm 1 learning from sampled
-outcomes (_lossy._train_lossy), and its policy.
+outcomes (lossy_kernels.train_lossy), and its policy.
 
 Its policy is the greedy policy of its table: in an observed state, the first feasible action
 of largest Q-value. The table's state holds each sensor's distance as the point it uploaded
@@ -22,16 +22,16 @@ import time
 
 import numpy as np
 
+from voiopt.core.instance import Instance
 from voiopt.core.links import success_table, without_links
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
-from voiopt.instance import Instance
-from voiopt.models import mdp as mdp_mod
-from voiopt.progress import progress_bar, text_column
-from voiopt.solvers.qlearning._lossy import q_row, train_lossy
-from voiopt.solvers.qlearning._qtable import QTable
-from voiopt.solvers.qlearning._rng import seed_state
-from voiopt.stop import MEMORY_LIMIT, Stopped, watch
+from voiopt.mdp import robot as mdp_mod
+from voiopt.runtime.progress import progress_bar, text_column
+from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
+from voiopt.solvers.qlearning.lossy_kernels import q_row, train_lossy
+from voiopt.solvers.qlearning.rng import seed_state
+from voiopt.solvers.qlearning.table import QTable
 
 EXACT_STATES = 20_000  # states of a slot up to which the learnt policy's value is exact
 CHUNK_EPISODES = 2000
@@ -146,8 +146,8 @@ def warm_up() -> float:
     """Compile (or load) the lossy kernel once per process, on a tiny lossy MDP."""
 
     def load():
-        from voiopt.generate import generate
-        from voiopt.instance import from_dict
+        from voiopt.core.instance import from_dict
+        from voiopt.networks.generate import generate
 
         tiny = from_dict(generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up").to_dict()
                          | {"links": {"model": "bernoulli", "success": 0.5}})
