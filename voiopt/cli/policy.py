@@ -23,10 +23,12 @@ def add_policy_option(parser):
 
 def policy_path(args) -> str | None:
     """Where a policy's result saves its policy, checked before any work: --policy-out, else
-    RESULT.policy.json beside -o, else nowhere."""
+    RESULT.policy.json beside -o for a policy method, else nowhere."""
     from voiopt.core.policy import beside
+    from voiopt.solvers import POLICY_METHODS
 
-    path = args.policy_out or (beside(args.output) if args.output else None)
+    derived = args.output is not None and args.method in POLICY_METHODS  # only a policy method saves one
+    path = args.policy_out or (beside(args.output) if derived else None)
     if path is not None:
         check_output_file(path, "--policy-out", inputs=[("INSTANCE", args.instance), ("-o", args.output)])
     return path
