@@ -30,6 +30,7 @@ _HOMES = {
     **dict.fromkeys(("Result", "load_result"), "voiopt.core.result"),
     **dict.fromkeys(("Trajectory", "evaluate", "simulate"), "voiopt.core.simulate"),
     **dict.fromkeys(("METHODS", "solve"), "voiopt.solvers"),
+    "Status": "voiopt.runtime.status",
 }
 
 
@@ -56,7 +57,7 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "Channel", "FleetPlan", "Instance", "InstanceError", "Links", "METHODS", "OBJECTIVES", "OptionError", "Plan",
-    "PlanError", "Policy", "Result", "Robot", "Sensor", "Trajectory", "VoioptError", "case_study", "evaluate",
+    "PlanError", "Policy", "Result", "Robot", "Sensor", "Status", "Trajectory", "VoioptError", "case_study", "evaluate",
     "expected_metrics",
     "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
 ]

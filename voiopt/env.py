@@ -56,6 +56,7 @@ from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import robot as mdp_mod
 from voiopt.mdp.outcomes import Outcomes
 from voiopt.networks.generate import generate as generate_network
+from voiopt.runtime.status import Status
 
 ENV_ID = "voiopt/VoICollection-v0"
 CELL = 24  # pixels per lattice point in rgb_array renders
@@ -193,7 +194,7 @@ class VoIEnv(gym.Env):
                 cert = voilib.certified(self.instance, "mean-min-voi")
                 if cert is None:
                     result = dp.solve(self.instance, "mean-min-voi", progress=True)
-                    if result.status != "optimal":
+                    if result.status != Status.OPTIMAL:
                         raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and dp stopped on "
                                           f"{self.instance.name} ({result.status}); use 'paper'")
                     cert = result.value

@@ -30,6 +30,7 @@ from voiopt.networks.generate import generate as generate_one
 from voiopt.objectives import DEFAULT, OBJECTIVES
 from voiopt.runtime import numba_start
 from voiopt.runtime.files import check_output_dir, check_output_file, dumps_json, read_json
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import last_signal, sigterm_raises
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
@@ -193,13 +194,13 @@ def cmd_solve(args) -> int:
                   f"no plan{': ' + result.solver['note'] if result.solver.get('note') else ''}", markup=False)
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
-    if result.status == "interrupted":  # the best plan is kept (and written), but the run did not finish
+    if result.status == Status.INTERRUPTED:  # the best plan is kept (and written), but the run did not finish
         kept = (f"written to {args.output}" if args.output else "printed above (--json)" if args.json
                 else "not kept (-o FILE keeps it)")
         err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is {kept}",
                   markup=False)
         return 128 + (last_signal() or signal.SIGINT)
-    return 0 if result.status != "error" else 1
+    return 0 if result.status != Status.ERROR else 1
 
 
 def cmd_export(args) -> int:

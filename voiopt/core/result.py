@@ -21,9 +21,9 @@ from voiopt.core.simulate import simulate
 from voiopt.errors import VoioptError
 from voiopt.objectives import TINY, check_objective
 from voiopt.runtime.files import read_json, write_json_atomic
+from voiopt.runtime.status import Status
 
-STATUSES = ("optimal", "feasible", "time_limit", "memory_limit", "interrupted", "infeasible", "error")
-STOPPED = ("time_limit", "memory_limit", "interrupted")  # stopped early, with a plan
+STATUSES = tuple(s.value for s in Status)
 OPTIMAL_RTOL = 1e-6
 EVALUATIONS = ("exact", "monte-carlo")  # MODEL.md section 11: how a lossy result's value was computed
 BOUND_KINDS = ("exact", "lossless", "information-relaxation")
@@ -36,7 +36,7 @@ class Result:
     instance: str
     method: str
     objective: str
-    status: str
+    status: Status
     value: float | None
     bound: float | None
     gap: float | None
@@ -69,9 +69,10 @@ class Result:
         check_objective(objective)
         if status not in STATUSES:
             raise ValueError(f"status: unknown status {status!r}")
+        status = Status(status)
         solver = dict(solver or {})
         if plan is None:
-            if status in ("optimal", "feasible", *STOPPED):
+            if status.has_plan:
                 raise ValueError(f"status {status!r} needs a plan")
             return cls(instance.name, method, objective, status, None, _clean(bound), None, runtime_s, None, None, solver)
         metrics = simulate(instance, plan).metrics
@@ -89,9 +90,9 @@ class Result:
                     )
                 bound = value
         gap = objectives.gap(value, bound)
-        if status == "optimal" and (gap is None or gap > OPTIMAL_RTOL):
+        if status == Status.OPTIMAL and (gap is None or gap > OPTIMAL_RTOL):
             solver.setdefault("note", "optimality not claimed: bound and simulated value differ")
-            status = "feasible"
+            status = Status.FEASIBLE
         return cls(instance.name, method, objective, status, value, bound, gap, float(runtime_s), plan, metrics, solver)
 
     @classmethod
@@ -106,6 +107,7 @@ class Result:
         check_objective(objective)
         if status not in STATUSES:
             raise ValueError(f"status: unknown status {status!r}")
+        status = Status(status)
         if evaluation not in EVALUATIONS or (bound is None) != (bound_kind is None) or (
                 bound_kind is not None and bound_kind not in BOUND_KINDS):
             raise ValueError(f"evaluation {evaluation!r}, bound {bound!r}, bound_kind {bound_kind!r}: not a lossy result")
@@ -119,10 +121,10 @@ class Result:
                 raise RuntimeError(f"{method}: {bound_kind} bound {bound!r} is worse than the exact value {value!r}")
             bound = value if violation > 0 else bound
         gap = objectives.gap(value, bound)
-        if status == "optimal" and not (evaluation == "exact" and bound_kind == "exact" and gap is not None
-                                        and gap <= OPTIMAL_RTOL):
+        if status == Status.OPTIMAL and not (evaluation == "exact" and bound_kind == "exact" and gap is not None
+                                             and gap <= OPTIMAL_RTOL):
             solver.setdefault("note", "optimality not claimed: it needs an exact value equal to an exact bound")
-            status = "feasible"
+            status = Status.FEASIBLE
         return cls(instance.name, method, objective, status, value, bound, gap, float(runtime_s), plan, dict(metrics),
                    solver, evaluation, samples, None if value_ci is None else tuple(map(float, value_ci)), bound_kind,
                    bound_samples, bound_confidence)
@@ -154,7 +156,7 @@ class Result:
         try:
             check_objective(d["objective"])
             return cls(
-                d["instance"], d["method"], d["objective"], d["status"], d["value"], d["bound"],
+                d["instance"], d["method"], d["objective"], Status(d["status"]), d["value"], d["bound"],
                 d["gap"], d["runtime_s"], None if d["plan"] is None else Plan.from_dict(d["plan"]),
                 d["metrics"], d.get("solver", {}),
                 **{k: d[k] for k in LOSSY_FIELDS if k in d},

@@ -20,6 +20,7 @@ from voiopt.networks.generate import case_study, case_study_plan
 from voiopt.objectives import DEFAULT as OBJECTIVE
 from voiopt.objectives import OBJECTIVES
 from voiopt.runtime.files import safe_name
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Interrupted, watch
 from voiopt.solvers import RANDOMISED, solve
 
@@ -50,7 +51,7 @@ def run_demo(path: str | None, console: Console, out_dir: str | Path = "out/demo
     if stop.requested:
         raise Interrupted(stop.signal)
     if not path:
-        example = Result.from_plan(inst, "example", OBJECTIVE, case_study_plan(), status="feasible")
+        example = Result.from_plan(inst, "example", OBJECTIVE, case_study_plan(), status=Status.FEASIBLE)
         results.append(("example", example))
         console.print("example: the hand-made plan shipped in instances/case-study.plan.json", style="dim")
     _report(inst, console, Path(out_dir), results)
@@ -113,7 +114,7 @@ def _report(inst, console: Console, out_dir: Path, results: list[tuple[str, Resu
     if best_bound:
         for label, reading in (("qlearning", "V in bit/s, penalty 100: the paper as written"),
                                ("qlearning bit/s/Hz", "V / B, penalty 100")):
-            runs = [r for row, r in results if row.startswith(f"{label} (seed") and r.status in ("optimal", "feasible")]
+            runs = [r for row, r in results if row.startswith(f"{label} (seed") and r.status in (Status.OPTIMAL, Status.FEASIBLE)]
             if not runs:
                 continue
             gaps = [objectives.gap(r.value, best_bound) for r in runs]

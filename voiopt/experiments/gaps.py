@@ -25,12 +25,13 @@ from voiopt.experiments.runner import (
 )
 from voiopt.objectives import check_objective
 from voiopt.runtime.files import atomic_write, check_output_dir, write_csv
+from voiopt.runtime.status import Status
 from voiopt.solvers import RANDOMISED
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
 GAP_COLUMNS = ["instance", "method", "seed", "objective", "status", "value", "bound", "best_value", "best_bound",
                "gap", "runtime_s", "cause", "reward_units"]
-NORMAL = ("optimal", "feasible")  # every other status is counted and explained in summary.md
+NORMAL = (Status.OPTIMAL, Status.FEASIBLE)  # every other status is counted and explained in summary.md
 
 
 def cause(r: Result) -> str:
@@ -79,15 +80,15 @@ def summarise(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> list[di
     for m in methods:
         mine = [r for r in rows if r["method"] == m]
         gaps = [r["gap"] for r in mine if r["gap"] is not None]
-        times = [r["runtime_s"] for r in mine if r["status"] != "error"]
+        times = [r["runtime_s"] for r in mine if r["status"] != Status.ERROR]
         seeds = sorted({r["seed"] for r in mine if r.get("seed") is not None})
         out.append({
             "method": m,
             "instances": len({r["instance"] for r in mine}),
             "runs": len(mine),
             "seeds": seeds,
-            "optimal": sum(r["status"] == "optimal" for r in mine),
-            "errors": sum(r["status"] == "error" for r in mine),
+            "optimal": sum(r["status"] == Status.OPTIMAL for r in mine),
+            "errors": sum(r["status"] == Status.ERROR for r in mine),
             "other": _count_statuses(r["status"] for r in mine if r["status"] not in NORMAL),
             "median_gap": statistics.median(gaps) if gaps else None,
             "mean_gap": statistics.fmean(gaps) if gaps else None,

@@ -30,6 +30,7 @@ from voiopt.networks.generate import case_study, generate_set, write_set
 from voiopt.objectives import DEFAULT as OBJECTIVE
 from voiopt.objectives import OBJECTIVES
 from voiopt.runtime.files import atomic_write, check_output_dir, read_csv, safe_name, write_csv
+from voiopt.runtime.status import Status
 from voiopt.solvers import RANDOMISED
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
@@ -96,8 +97,8 @@ def _aggregate(sweep: Sweep, results: dict[tuple[float, str], list[tuple[int | N
                 "seed_max": max(seed_means) if seed_means else None,
                 "ci95": ci95(per_network),
                 "mean_bound": statistics.fmean(bounds) if m == "dp" and bounds and not any(map(math.isnan, bounds)) else None,
-                "certified": sum(r.status == "optimal" for _, r in runs) if m == "dp" else None,
-                "errors": sum(r.status == "error" for _, r in runs),
+                "certified": sum(r.status == Status.OPTIMAL for _, r in runs) if m == "dp" else None,
+                "errors": sum(r.status == Status.ERROR for _, r in runs),
             })
     return rows
 
@@ -277,8 +278,8 @@ def _robots_figure(insts, tasks, networks: int, seed: int, seeds: int, reward_un
                          "mean": statistics.fmean(seed_means) if seed_means else None,
                          "seed_min": min(seed_means) if seed_means else None,
                          "seed_max": max(seed_means) if seed_means else None, "ci95": None,
-                         "mean_bound": None, "certified": sum(r.status == "optimal" for _, r, _ in runs),
-                         "errors": sum(r.status == "error" for _, r, _ in runs)})
+                         "mean_bound": None, "certified": sum(r.status == Status.OPTIMAL for _, r, _ in runs),
+                         "errors": sum(r.status == Status.ERROR for _, r, _ in runs)})
     key = ROBOTS.key
     csv_path = out / f"{key}.csv"
     write_csv(csv_path, rows, ["x", "method", "networks", "seeds", "mean", "seed_min", "seed_max", "ci95",

@@ -41,6 +41,7 @@ from voiopt.errors import (
 from voiopt.mdp.robot import check_reward_units
 from voiopt.runtime.files import atomic_write, loads_json, read_json, safe_name, write_json_atomic
 from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import (
     INTERRUPTED,
     Interrupted,
@@ -217,7 +218,7 @@ def solve_task(task: Task) -> dict[str, Any]:
         result = solver_function(task.method)(inst, task.objective, **task.options)
     except Exception as e:  # recorded, never fatal for the sweep
         result = Result(
-            task.instance_name, task.method, task.objective, "error", None, None, None,
+            task.instance_name, task.method, task.objective, Status.ERROR, None, None, None,
             time.perf_counter() - start, None, None, {"error": f"{type(e).__name__}: {e}"},
         )
     return result.to_dict()

@@ -12,7 +12,9 @@ import threading
 import time
 from contextlib import contextmanager
 
-TIME_LIMIT, MEMORY_LIMIT, INTERRUPTED = "time_limit", "memory_limit", "interrupted"
+from voiopt.runtime.status import Status
+
+TIME_LIMIT, MEMORY_LIMIT, INTERRUPTED = Status.TIME_LIMIT, Status.MEMORY_LIMIT, Status.INTERRUPTED
 GB = 1e9  # memory limits are given in GB (10^9 bytes) everywhere
 
 

@@ -16,6 +16,7 @@ from voiopt.core.expectation import expected_metrics
 from voiopt.core.instance import Instance
 from voiopt.core.links import is_lossy, without_links
 from voiopt.core.result import Result
+from voiopt.runtime.status import Status
 
 
 def plan_method(fn: Callable[..., Result]) -> Callable[..., Result]:
@@ -36,9 +37,9 @@ def plan_method(fn: Callable[..., Result]) -> Callable[..., Result]:
 def plan_result(instance: Instance, lossless: Result) -> Result:
     """The result on the lossy ``instance`` of a plan method's result on its lossless instance."""
     solver = dict(lossless.solver)
-    solver["lossless_status"] = lossless.status
+    solver["lossless_status"] = Status(lossless.status).value
     solver["lossless_value"] = lossless.value
-    status = "feasible" if lossless.status == "optimal" else lossless.status
+    status = Status.FEASIBLE if lossless.status == Status.OPTIMAL else Status(lossless.status)
     if lossless.plan is None:  # infeasible or an error: nothing to value
         return Result(instance.name, lossless.method, lossless.objective, status, None, lossless.bound, None,
                       lossless.runtime_s, None, None, solver, evaluation="exact",

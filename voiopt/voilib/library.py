@@ -35,6 +35,7 @@ from voiopt.runtime.files import (
     safe_name,
     write_json_atomic,
 )
+from voiopt.runtime.status import Status
 
 VERSION = "1.2"  # a certificate changes only with a new version of the library (1.1: the cover bound; 1.2: two threads)
 DATA = resources.files("voiopt") / "data" / "voilib"
@@ -321,7 +322,7 @@ def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dic
     """One certificate from the certifying runs of an instance and objective: the best
     simulated plan and the tightest proven bound. Two proofs of optimality must agree."""
     check_objective(objective)
-    proved = [r for r in results if r.status == "optimal"]
+    proved = [r for r in results if r.status == Status.OPTIMAL]
     for a in proved:
         for b in proved:
             if gap(a.value, b.value) > OPTIMAL_RTOL:

@@ -26,6 +26,7 @@ from voiopt.core.result import Result
 from voiopt.core.simulate import advance
 from voiopt.grid import lattice as lattice_mod
 from voiopt.grid.joint import NoJointPlan
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stop
 
 MAX_JOINT_UPLOADS = 4096  # joint upload choices scored exhaustively per slot; above, robot by robot
@@ -182,10 +183,10 @@ def _result(instance, method, objective, stop, solver, state0, begin, prefer, on
                 proof = none
             paths = staying if paths is None and proof is None else paths
         if proof is not None:
-            return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
+            return Result.from_plan(instance, method, objective, None, status=Status.INFEASIBLE, runtime_s=stop.elapsed(),
                                     solver={**solver, "note": str(proof)})
         if paths is None:
-            return Result.from_plan(instance, method, objective, None, status="error", runtime_s=stop.elapsed(),
+            return Result.from_plan(instance, method, objective, None, status=Status.ERROR, runtime_s=stop.elapsed(),
                                     solver={**solver, "note": f"{e}; a legal plan may still exist (milp may find one)"})
         if stop.requested:  # robots head home without uploads once stopped; here they are home
             idx, sched = paths, np.full_like(paths, -1)
@@ -196,7 +197,7 @@ def _result(instance, method, objective, stop, solver, state0, begin, prefer, on
     if stop.requested:
         solver["stopped"] = f"{stop.describe()}; the robots then head for their ends without uploads"
     return Result.from_plan(instance, method, objective, Plan.from_indices(instance, idx, sched),
-                            status=stop.reason or "feasible", runtime_s=stop.elapsed(), solver=solver)
+                            status=stop.reason or Status.FEASIBLE, runtime_s=stop.elapsed(), solver=solver)
 
 
 def _staying(instance: Instance) -> np.ndarray | None:

@@ -22,6 +22,7 @@ from voiopt.core.result import Result
 from voiopt.errors import check_seed
 from voiopt.grid import lattice as lattice_mod
 from voiopt.objectives import check_objective
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stop, Stopped, halt_if_asked, watch
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
@@ -187,7 +188,7 @@ def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
         idx += [p, *lat.walk_home(p, left - 1)] if left else []
         sched += [-1] * left
     return Result.from_plan(
-        instance, "greedy", objective, Plan.from_indices(instance, idx, sched), status=stop.reason or "feasible",
+        instance, "greedy", objective, Plan.from_indices(instance, idx, sched), status=stop.reason or Status.FEASIBLE,
         runtime_s=stop.elapsed(), solver=solver,
     )
 
@@ -413,7 +414,7 @@ def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) ->
     if stop.requested:
         info["stopped"] = stop.describe()
     return Result.from_plan(
-        instance, "shortest-path", objective, plan, status=stop.reason or "feasible",
+        instance, "shortest-path", objective, plan, status=stop.reason or Status.FEASIBLE,
         runtime_s=stop.elapsed(), solver={**info, "seed": int(seed)},
     )
 

@@ -19,6 +19,7 @@ from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
 from voiopt.objectives import check_objective
 from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, idle_plan, require_memory
 from voiopt.solvers.dp import solver as dp
@@ -61,5 +62,5 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     solver = {"passes": passes, "max_width": max_width, "startup_s": startup_s}
     if stop.reason:
         solver["stopped"] = stop.describe()
-    return Result.from_plan(instance, "beam", objective, best_plan, status=stop.reason or "feasible",
+    return Result.from_plan(instance, "beam", objective, best_plan, status=stop.reason or Status.FEASIBLE,
                             runtime_s=stop.elapsed(), solver=solver)

@@ -21,6 +21,7 @@ from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.grid import lattice as lattice_mod
 from voiopt.objectives import check_objective
 from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, Stopped, watch
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
@@ -251,7 +252,7 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
         where, solver = "stopped while building the tables", {"startup_s": startup_s}
         if stopped is not None:  # dp's: greedy's plan, stopped at once (baselines.stopped_result)
             return stopped(instance, "dp", objective, stop, solver, where)
-        return Result.from_plan(instance, "dp", objective, None, status="error", runtime_s=stop.elapsed(),
+        return Result.from_plan(instance, "dp", objective, None, status=Status.ERROR, runtime_s=stop.elapsed(),
                                 solver={**solver, "note": f"{where}, before any plan", "stopped": stop.describe()})
     scale = jt.tab.to_internal  # objective value * scale = the kernels' maximised value
     best = Incumbent(instance, objective)
@@ -270,7 +271,7 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
     if first.plan is not None:
         offer(first.plan, "legal")
     elif first.complete:
-        return Result.from_plan(instance, "dp", objective, None, status="infeasible", runtime_s=stop.elapsed(),
+        return Result.from_plan(instance, "dp", objective, None, status=Status.INFEASIBLE, runtime_s=stop.elapsed(),
                                 solver={"passes": {"legal": first.summary()}})
     elif best.value is None:  # stopped before any plan: dp's fallback (greedy's plan, stopped at once)
         return stopped(instance, "dp", objective, stop, {"startup_s": startup_s, "passes": {"legal": first.summary()}},
@@ -287,9 +288,9 @@ def _solve(instance, objective, stop, startup_s, warm_start, beam, bounding, pro
         raise RuntimeError("dp: no plan after the legal pass found one")
     value = best.value * scale
     if out.complete:
-        bound, status = max(value, out.value), "optimal"
+        bound, status = max(value, out.value), Status.OPTIMAL
     else:
-        bound, status = max(value, out.open_bound), stop.reason or "time_limit"
+        bound, status = max(value, out.open_bound), stop.reason or Status.TIME_LIMIT
     solver = {"passes": {k: p.summary() for k, p in passes.items()},
               "labels": sum(p.labels for p in passes.values()),
               "peak_label_bytes": max(p.peak_bytes for p in passes.values()),

@@ -21,6 +21,7 @@ from voiopt.core.result import Result
 from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
 from voiopt.objectives import check_objective
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import TIME_LIMIT, Stop, Stopped, watch
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
@@ -219,9 +220,9 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
     if best_plan is None:  # stopped before any plan
         offer(idle_plan(instance), "idle")
     if out.complete:
-        bound_internal, status = max(best_value, out.value), "optimal"
+        bound_internal, status = max(best_value, out.value), Status.OPTIMAL
     elif subset_bound.reaches(best_value, relaxed):  # a plan as good as a subset's bound
-        bound_internal, status = max(best_value, relaxed), "optimal"
+        bound_internal, status = max(best_value, relaxed), Status.OPTIMAL
     else:
         bound_internal, status = max(best_value, min(out.open_bound, relaxed)), stop.reason or TIME_LIMIT
     solver = {
@@ -246,7 +247,7 @@ def _solve(instance: Instance, objective: str, stop: Stop, startup_s: float, *, 
         solver["subsets"] = subset_runs
     if pattern_runs:
         solver["patterns"] = pattern_runs
-    if status != "optimal":
+    if status != Status.OPTIMAL:
         solver["stopped"] = stop.describe()
     return Result.from_plan(instance, "dp", objective, best_plan, status=status, bound=tab.external(bound_internal),
                             runtime_s=stop.elapsed(), solver=solver)
@@ -270,7 +271,7 @@ def _bounded(instance: Instance, objective: str, tab: Tables, stop: Stop, subset
     below that bound with the pattern of that pass: it finds a plan attaining the bound (often:
     the sensor that joined does not lower the optimum) or proves the optimum below it. Its
     passes run a hair (NEAR) below their threshold and are recorded, for the next subset."""
-    solved = [r for r in subset_runs if r["status"] == "optimal" and len(r["sensors"]) >= PATTERN_SENSORS]
+    solved = [r for r in subset_runs if r["status"] == Status.OPTIMAL and len(r["sensors"]) >= PATTERN_SENSORS]
     sensors = solved[0]["sensors"] if solved and patterns else None
     z = inc()
     given = extra = None  # a smaller subset's pass, for a subset's first pass; a subset's pass, for the whole's passes

@@ -22,6 +22,7 @@ from voiopt.core.instance import Instance
 from voiopt.core.plan import Plan
 from voiopt.core.simulate import simulate
 from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stop
 from voiopt.solvers.dp.tables import progress_text
 
@@ -154,7 +155,7 @@ def relax(instance: Instance, objective: str, tab, stop: Stop, offer, incumbent,
                                 labels=r.solver["labels"], bound=r.bound, passes=list(r.solver["passes"])))
             plan = Plan(r.plan.positions, tuple(None if u is None else keep[u] for u in r.plan.schedule))
             offer(plan, f"subset of {len(keep)}")
-            if r.status != "optimal" or reaches(incumbent()[1], best):
+            if r.status != Status.OPTIMAL or reaches(incumbent()[1], best):
                 break  # a larger subset would take longer still, or the bound is attained
             joins = _furthest_below(instance, objective, plan, keep)
             if joins is None:

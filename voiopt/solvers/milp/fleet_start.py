@@ -11,6 +11,7 @@ import numpy as np
 from voiopt.core.plan import Plan
 from voiopt.core.simulate import check_plan
 from voiopt.errors import PlanError
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped
 from voiopt.solvers.milp import formulation as milp_formulation
 
@@ -26,8 +27,8 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
     here if the time is up; else each robot's greedy plan alone, if together they keep
     section 10's rules (a sensor serving two robots in one slot stays with the first); else
     their repair: the plan of the path model (no cover rows) that keeps most of their
-    positions, moves and uploads. None once there is a plan, "infeasible" when
-    HiGHS proves there is none, "error" when stopped before either."""
+    positions, moves and uploads. None once there is a plan, INFEASIBLE when
+    HiGHS proves there is none, ERROR when stopped before either."""
     inst = run.instance
     if warm_start is not None:
         run.incumbent.offer(*check_plan(inst, warm_start), source="warm start")
@@ -42,9 +43,9 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
         run.incumbent.offer(*check_plan(inst, joint.plan), source="warm start")
         run.details["warm_start"] = "greedy"
         return None
-    if joint.status == "infeasible":  # greedy only says so with a proof (an exhausted exact search)
+    if joint.status == Status.INFEASIBLE:  # greedy only says so with a proof (an exhausted exact search)
         run.details["note"] = f"no legal joint plan: {joint.solver.get('note')} (MODEL.md section 10)"
-        return "infeasible"
+        return Status.INFEASIBLE
     # (where every robot staying at its start is legal, greedy has returned that plan)
     idx, sched = np.empty((2, inst.n_robots, inst.horizon), dtype=np.int64)
     for k in range(inst.n_robots):
@@ -87,10 +88,10 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
     if ms == highspy.HighsModelStatus.kInfeasible:
         run.details["note"] = ("no legal joint plan: the robots cannot all keep their ends and budgets without sharing "
                                "a point or swapping points (MODEL.md section 10); HiGHS proved the path model infeasible")
-        return "infeasible"
+        return Status.INFEASIBLE
     return _no_plan_yet(run, f"HiGHS: {h.modelStatusToString(ms)}")
 
 
 def _no_plan_yet(run, why: str) -> str:
     run.details["note"] = f"stopped before any legal joint plan was found ({why})"
-    return "error"
+    return Status.ERROR

@@ -27,6 +27,7 @@ from voiopt.core.plan import Plan
 from voiopt.core.result import Result
 from voiopt.errors import OptionError, PlanError
 from voiopt.runtime.files import MAX_JSON_BYTES
+from voiopt.runtime.status import Status
 from voiopt.solvers.milp.model import new_highs, path_names, worth_name
 from voiopt.solvers.milp.solution import plan_from_columns
 from voiopt.solvers.milp.uploads import structure
@@ -270,7 +271,7 @@ def import_solution(instance: Instance, objective: str, model: str | os.PathLike
     idx, sched = plan_from_columns(st, col)
     try:
         plan = Plan.from_indices(instance, idx, sched)
-        return Result.from_plan(instance, "import", objective, plan, status="feasible", runtime_s=0.0,
+        return Result.from_plan(instance, "import", objective, plan, status=Status.FEASIBLE, runtime_s=0.0,
                                 solver={"model": str(model), "solution": str(solution), "columns_read": len(values)})
     except PlanError as e:  # the solution's plan breaks a rule: name the file
         raise PlanError(f"SOLUTION: {solution}: its plan breaks a rule: {e}") from None

@@ -36,6 +36,7 @@ from voiopt.core.simulate import check_plan
 from voiopt.errors import OptionError
 from voiopt.grid import lattice as lattice_mod
 from voiopt.objectives import DEFAULT, check_objective
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import TIME_LIMIT, Stop, Stopped, resident_bytes, watch
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
@@ -107,7 +108,7 @@ def solve(
     if status == TIME_LIMIT and not stop.requested:  # HiGHS's own clock ran out first
         stop.request(TIME_LIMIT)
     if stop.requested:  # a proof completed as the stop came is kept: the result is whole (exit status 0)
-        run.details["stopped"] = stop.describe() + ("; the optimum was proven by then" if status == "optimal" else "")
+        run.details["stopped"] = stop.describe() + ("; the optimum was proven by then" if status == Status.OPTIMAL else "")
     return Result.from_plan(
         instance, METHOD, objective, run.incumbent.plan, status=status, bound=bound,
         runtime_s=stop.elapsed(), solver=run.details,
@@ -272,7 +273,7 @@ class _Run:
         self.details["build_s"] += time.perf_counter() - t
         self.details["candidates"] = int(top - max(lo, 0) + 1)
         steps = []
-        status = "optimal"
+        status = Status.OPTIMAL
         while lo < hi:
             if self.out_of_time():
                 status = self.stop.reason or TIME_LIMIT
@@ -342,15 +343,15 @@ class _Run:
         self.details["mip_gap"] = float(info.mip_gap) if math.isfinite(info.mip_gap) else None
         bound = self._dual_bound_worth(model, info)
         if ms == K.kOptimal:
-            status = "optimal"
+            status = Status.OPTIMAL
             bound = self._patch(model, bound)
         elif ms in _STOPPED:
             status = self.stop.reason or TIME_LIMIT
         else:  # keep the best plan, claim nothing
             self.details["note"] = f"HiGHS ended with {self.details['highs_status']!r}"
-            return (self.stop.reason if self.stop.requested else "feasible"), None
+            return (self.stop.reason if self.stop.requested else Status.FEASIBLE), None
         value = self.worth(self.incumbent.value)
-        if status == "optimal" and self.stop.requested and bound is not None and _above(bound, value):
+        if status == Status.OPTIMAL and self.stop.requested and bound is not None and _above(bound, value):
             # HiGHS proved its bound but, stopped, did not hand over the plan that meets it
             status = self.stop.reason
         if bound is not None and _above(value, bound):
@@ -358,7 +359,7 @@ class _Run:
             self.details["note"] = (f"HiGHS's bound {self.worth(bound):.10g} fell below the simulated value of a plan it "
                                     "found: no proof from it; the bound is the relaxation's (docs/milp.md)")
             bound = self._dual_bound_worth(model, _NO_INFO)
-            status = "feasible" if status == "optimal" else status
+            status = Status.FEASIBLE if status == Status.OPTIMAL else status
         return status, (None if bound is None else self.worth(bound))
 
     def _dual_bound_worth(self, model: milp_model.Model, info) -> float | None:

@@ -23,6 +23,7 @@ from voiopt.core.links import without_links
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
 from voiopt.errors import OptionError
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 from voiopt.solvers.policy.relaxation import information_relaxation
@@ -92,7 +93,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
             evaluation = evaluate_policy(policy, objective, samples=samples, seed=seed, max_states=EXACT_STATES)
         except Stopped:
             evaluation = None
-        status = "feasible" if evaluation is not None else stop.reason
+        status = Status.FEASIBLE if evaluation is not None else stop.reason
         if evaluation is None:  # stopped: the open-loop lossless plan (the slot-0 solve), valued exactly
             from voiopt.core.expectation import expected_metrics
 
@@ -104,7 +105,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         first = policy.first if isinstance(policy, ReplanPolicy) else None
         first = first or _lossless(instance, objective, planner)
         bound, kind, extra = first.bound, "lossless" if first.bound is not None else None, {}
-        if ir_samples and evaluation is not None and status == "feasible":
+        if ir_samples and evaluation is not None and status == Status.FEASIBLE:
             ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound, stop=stop)
             if ir is not None and not ir["capped"]:
                 bound, kind = ir["bound"], "information-relaxation"

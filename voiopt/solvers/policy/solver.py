@@ -23,6 +23,7 @@ from voiopt.core.policy_value import exact_value
 from voiopt.errors import OptionError
 from voiopt.objectives import check_objective
 from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 from voiopt.solvers.policy.expectimax import AVERAGED, Expectimax
@@ -69,7 +70,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         bar.update(task, completed=search.states)
     solver["states"] = search.states
     if value is None:
-        solver["stopped"] = (f"time limit of {time_limit:g} s reached" if stop.reason == "time_limit"
+        solver["stopped"] = (f"time limit of {time_limit:g} s reached" if stop.reason == Status.TIME_LIMIT
                              and time_limit is not None else stop.describe())
         solver["note"] = "the expectimax did not finish: the policy is the lossless optimum plan, open-loop"
         evaluation = {"value": expected_metrics(instance, base.plan)[objective], "evaluation": "exact"}
@@ -81,5 +82,5 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     solver["programme_value"] = value
     solver["policy_states"] = len(rows)
     return policy_result(instance, "policy-dp", objective, policy, {"value": checked, "evaluation": "exact"},
-                         status="optimal", bound=value, bound_kind="exact", runtime_s=time.perf_counter() - t0,
+                         status=Status.OPTIMAL, bound=value, bound_kind="exact", runtime_s=time.perf_counter() - t0,
                          solver=solver)

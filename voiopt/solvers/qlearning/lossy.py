@@ -28,6 +28,7 @@ from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
 from voiopt.mdp import robot as mdp_mod
 from voiopt.runtime.progress import progress_bar, text_column
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
 from voiopt.solvers.qlearning.lossy_kernels import q_row, train_lossy
 from voiopt.solvers.qlearning.rng import seed_state
@@ -138,7 +139,7 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
         if ir is not None and not ir["capped"]:
             bound, kind = ir["bound"], "information-relaxation"
             extra = {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]}
-    return policy_result(instance, method, objective, policy, evaluation, status=stopped or "feasible", bound=bound,
+    return policy_result(instance, method, objective, policy, evaluation, status=stopped or Status.FEASIBLE, bound=bound,
                          bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)
 
 

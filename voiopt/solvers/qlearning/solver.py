@@ -27,6 +27,7 @@ from voiopt.mdp import fleet as fleet_mdp
 from voiopt.mdp import robot as mdp_mod
 from voiopt.objectives import AOI_DEFAULT, DEFAULT, check_objective
 from voiopt.runtime.progress import progress_bar, text_column
+from voiopt.runtime.status import Status
 from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
 from voiopt.solvers import base
 from voiopt.solvers.qlearning import fleet as fleet_kernels
@@ -140,7 +141,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         try:
             model = build(instance, reward, penalty, slot_in_state, reward_units, stop=stop)
         except joint.NoJointPlan as e:  # proven: no legal plan to learn
-            return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
+            return Result.from_plan(instance, method, objective, None, status=Status.INFEASIBLE, runtime_s=stop.elapsed(),
                                     solver={**settings, "episodes_run": 0, "note": str(e)})
         except Stopped:  # nothing learnt: the plan of a stopped heuristic (no uploads, robots heading home)
             from voiopt.solvers.baselines.heuristics import stopped_result
@@ -190,7 +191,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes ({table.n_states} states)"
     return Result.from_plan(
         instance, method, objective, Plan.from_indices(instance, idx, sched),
-        status=(stop.reason if done < episodes else None) or "feasible", runtime_s=stop.elapsed(), solver=solver,
+        status=(stop.reason if done < episodes else None) or Status.FEASIBLE, runtime_s=stop.elapsed(), solver=solver,
     )
 
 
