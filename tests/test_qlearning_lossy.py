@@ -43,3 +43,10 @@ def test_success_one_is_bit_for_bit_lossless(method):
     ones = voiopt.solve(from_dict(d | {"links": {"model": "bernoulli", "success": 1.0}}), method, episodes=3000, seed=4)
     assert ones.plan == plain.plan and ones.value == plain.value and ones.metrics == plain.metrics
     assert ones.solver["table_states"] == plain.solver["table_states"] and ones.evaluation is None
+
+
+def test_lossy_qlearning_stopped_by_the_time_limit_reports_its_policy_so_far():
+    inst = from_dict(tiny(3, 2, 5, {"model": "bernoulli", "success": 0.5}))
+    r = voiopt.solve(inst, "qlearning", episodes=10**8, seed=0, time_limit=1e-6)
+    assert r.status == "time_limit" and 0 < r.solver["episodes_run"] < 10**8
+    assert r.evaluation == "exact" and r.value <= r.bound

@@ -46,3 +46,10 @@ def test_replan_with_an_information_relaxation_bound_says_so():
     assert r.bound_samples == 30 and r.bound_confidence == 0.95
     assert r.value <= r.bound < r.solver["lossless_bound"]
     assert r.to_dict()["bound_kind"] == "information-relaxation" and r.status != "optimal"
+
+
+def test_replan_stopped_by_the_time_limit_keeps_the_open_loop_plan():
+    inst = from_dict(tiny(2, 3, 5, {"model": "bernoulli", "success": 0.5}))
+    r = voiopt.solve(inst, "replan", "mean-min-voi", time_limit=1e-6)
+    assert r.status == "time_limit" and r.policy.kind == "plan" and r.evaluation == "exact"
+    assert r.bound_kind == "lossless" and r.value <= r.bound
