@@ -23,6 +23,7 @@ from voiopt.core.links import without_links
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
 from voiopt.errors import OptionError
+from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
@@ -42,6 +43,7 @@ class ReplanPolicy(Policy):
         self.planner, self.stop = planner, stop
         self.base = without_links(instance)
         self.solves = 0
+        self.tick = None  # called after each solve (progress)
         self.first: object = None  # the slot-0 solve's Result: the lossless optimum
 
     def choose(self, t: int, state: tuple) -> tuple[int, int]:
@@ -68,6 +70,8 @@ class ReplanPolicy(Policy):
         solver = dp.solve if self.planner == "dp" else beam.solve
         result = solver(rest, self.objective)
         self.solves += 1
+        if self.tick is not None:
+            self.tick()
         if t == 0 and self.first is None:
             self.first = result
         idx = [lat.index(*xy) for xy in result.plan.positions[:2]]
@@ -86,8 +90,10 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     if planner not in PLANNERS:
         raise OptionError(f"planner: must be one of {', '.join(PLANNERS)}, got {planner!r}")
     t0 = time.perf_counter()
-    with watch(time_limit, memory_limit) as stop:
+    with watch(time_limit, memory_limit) as stop, progress_bar(progress) as bar:
+        task = bar.add_task(f"replan ({planner}): lossless solves", total=None)
         policy = ReplanPolicy(instance, objective, planner, stop)
+        policy.tick = lambda: bar.update(task, advance=1)
         solver = {"planner": planner}
         try:
             evaluation = evaluate_policy(policy, objective, samples=samples, seed=seed, max_states=EXACT_STATES)
