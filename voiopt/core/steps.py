@@ -40,6 +40,8 @@ class Steps:
         self.dist = lat.distance
         self.in_range = [np.flatnonzero(lat.in_range[:, p]).tolist() for p in range(lat.n_points)]
         self._voi: dict = {}
+        self._moves: dict = {}  # (t, p, k) -> moves: the lattice's rules, asked once each
+        self._uploads: dict = {}  # (t, p) -> uploads
 
     def start_state(self) -> tuple:
         inst = self.instance
@@ -63,6 +65,13 @@ class Steps:
 
     def moves(self, t: int, p: int, k: int) -> list[tuple[int, int, int]]:
         """The legal (m, next point, next moves used) from p in slot t after k moves."""
+        key = (t, p, k)
+        hit = self._moves.get(key)
+        if hit is None:
+            hit = self._moves[key] = self._legal_moves(t, p, k)
+        return hit
+
+    def _legal_moves(self, t: int, p: int, k: int) -> list[tuple[int, int, int]]:
         if t == self.T - 1:
             return [(0, p, k)]
         lat, out = self.lat, []
@@ -78,7 +87,10 @@ class Steps:
     def uploads(self, t: int, p: int) -> list[tuple[int, float]]:
         """(-1, 0.0) for no upload, then (i, success probability) for each sensor in range
         whose upload can succeed (one that always fails acts as no upload)."""
-        out = [(-1, 0.0)]
+        hit = self._uploads.get((t, p))
+        if hit is not None:
+            return hit
+        out = self._uploads[(t, p)] = [(-1, 0.0)]
         for i in self.in_range[p]:
             ps = float(self.succ[t, p, i])
             if ps > 0.0:

@@ -26,7 +26,7 @@ from voiopt.core.steps import Steps
 from voiopt.runtime.stop import Stop, Stopped
 
 CHECK_EVERY = 4096  # new states between two looks at the stop rule
-STATE_BYTES = 260  # a memoised state: dict entry, key tuples and value pair, about (N = 3)
+STATE_BYTES = 360  # a memoised state: two dict entries, key tuples, value pair and worth, about (N = 3)
 
 
 class Expectimax:
@@ -40,6 +40,7 @@ class Expectimax:
         self.objective, self.stop, self.tick = objective, stop, tick  # tick(states): progress, now and then
         self.T = instance.horizon
         self.memo: list[dict] = [{} for _ in range(self.T + 1)]
+        self.worths: list[dict] = [{} for _ in range(self.T + 1)]
         self.states = 0
         recursion_room(self.T)
 
@@ -58,11 +59,19 @@ class Expectimax:
             for m, q, k2 in steps.moves(t, state[0], state[1]):
                 total = 0.0
                 for prob, nxt in steps.outcomes(t, state, u, q, k2):
-                    total += prob * (steps.reward(nxt[2], nxt[3]) + self.value(t + 1, nxt))
+                    total += prob * self.worth(t + 1, nxt)
                 if total > best:
                     best, best_action = total, (u, m)
         memo[state] = (best, best_action)
         return best
+
+    def worth(self, t: int, state: tuple) -> float:
+        """r(t) of ``state`` plus its value: what reaching it in slot t is worth (memoised)."""
+        memo = self.worths[t]
+        w = memo.get(state)
+        if w is None:
+            w = memo[state] = self.steps.reward(state[2], state[3]) + self.value(t, state)
+        return w
 
     def action(self, t: int, state: tuple) -> tuple[int, int]:
         """The optimal (u, m) in ``state`` at slot t."""
