@@ -150,3 +150,13 @@ def test_import_voiopt_is_light_and_its_names_are_the_documented_ones():
         voiopt.nope  # noqa: B018
     assert not hasattr(voiopt, "physics.voi") and not hasattr(voiopt, "__wrapped__")
     assert typing.get_type_hints(voiopt.evaluate)["instance"] is voiopt.Instance
+
+
+def test_no_code_compares_objective_names_or_worths_outside_objectives():
+    """Objectives travel as objects: outside objectives.py nothing compares a name or a worth's
+    word ("voi", "aoi") with ==, != or in."""
+    word = r"[\"'](?:min-voi|mean-min-voi|max-aoi|mean-max-aoi|voi|aoi)[\"']"
+    compare = re.compile(rf"(?:[=!]=\s*{word}|{word}\s*[=!]=|\bin\s*[(\[{{]\s*{word})")
+    found = [(m, line.strip()) for m, p in MODULES.items() if m != "voiopt.objectives"
+             for line in p.read_text().splitlines() if compare.search(line)]
+    assert found == []

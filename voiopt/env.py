@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from voiopt.errors import MissingExtraError, OptionError
+from voiopt.objectives import Worth
 
 try:
     import gymnasium as gym
@@ -56,6 +57,7 @@ from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import robot as mdp_mod
 from voiopt.mdp.outcomes import Outcomes
 from voiopt.networks.generate import generate as generate_network
+from voiopt.objectives import MEAN_MIN_VOI
 from voiopt.runtime.status import Status
 
 ENV_ID = "voiopt/VoICollection-v0"
@@ -71,7 +73,7 @@ def _check_normalisable(instance: Instance) -> None:
     is still open has none (dp would search for it without end), so it is refused up front."""
     from voiopt.voilib import library as voilib
 
-    interval = voilib.open_certificate(instance, "mean-min-voi")
+    interval = voilib.open_certificate(instance, MEAN_MIN_VOI)
     if interval is not None:
         raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and VoI-Lib's mean-min-voi certificate "
                           f"of {instance.name} is open ({interval}); use 'paper'")
@@ -123,7 +125,7 @@ class VoIEnv(gym.Env):
             raise OptionError(f"render_mode: must be 'ansi' or 'rgb_array', got {render_mode!r}")
         if reward_mode not in REWARD_MODES:
             raise OptionError(f"reward_mode: must be 'paper' or 'normalised', got {reward_mode!r}")
-        if reward_mode == "normalised" and reward != "voi":
+        if reward_mode == "normalised" and reward != Worth.VOI:
             raise OptionError(f"reward_mode: 'normalised' divides the VoI reward by the mean-min-voi optimum; "
                               f"with reward={reward!r} use reward_mode='paper'")
         if infeasible not in INFEASIBLE:
@@ -187,13 +189,13 @@ class VoIEnv(gym.Env):
     def optimum(self) -> float:
         """The certified mean-min-voi optimum that normalises the reward (once per instance)."""
         if self._optimum is None:
-            from voiopt.solvers.dp import solver as dp
+            from voiopt.solvers import solve
             from voiopt.voilib import library as voilib
 
             if self.instance not in _OPTIMA:
-                cert = voilib.certified(self.instance, "mean-min-voi")
+                cert = voilib.certified(self.instance, MEAN_MIN_VOI)
                 if cert is None:
-                    result = dp.solve(self.instance, "mean-min-voi", progress=True)
+                    result = solve(self.instance, "dp", MEAN_MIN_VOI, progress=True)
                     if result.status != Status.OPTIMAL:
                         raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and dp stopped on "
                                           f"{self.instance.name} ({result.status}); use 'paper'")

@@ -8,7 +8,7 @@ the minimum worth (per slot and summed, or over all slots).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -17,49 +17,102 @@ from voiopt.errors import OptionError
 TINY = 1e-300  # the denominator floor of a relative gap
 
 
-@dataclass(frozen=True)
-class Objective:
-    name: str
+class Worth(str, Enum):
+    """What a sensor is worth to an objective: its VoI, or minus its age. It equals its word
+    ("voi", "aoi"), as results and files write it."""
+
+    VOI = "voi"  # worth = V_i(t)
+    AOI = "aoi"  # worth = -A_i(t)
+
+    def __str__(self) -> str:
+        return self.value
+
+    def __format__(self, spec: str) -> str:
+        return format(self.value, spec)
+
+
+class Objective(str):
+    """One of the four objectives of MODEL.md section 5, resolved from its name once at the API
+    edge (``get``) and passed as it is from there on. It is its name, so it keys ``metrics``,
+    prints and reads in JSON as the name, and it carries what solvers ask of it: ``sense``,
+    ``worth``, ``per_slot`` and ``maximise``. Two objectives of one name are the same object."""
+
     sense: str  # "max" or "min"
-    worth: str  # "voi" (worth = V) or "aoi" (worth = -A)
+    worth: Worth
     per_slot: bool  # the mean over slots of a per-slot extreme (else the extreme over all slots)
+
+    def __new__(cls, name: str, sense: str, worth: Worth, per_slot: bool) -> Objective:
+        self = super().__new__(cls, name)
+        object.__setattr__(self, "sense", sense)
+        object.__setattr__(self, "worth", Worth(worth))
+        object.__setattr__(self, "per_slot", per_slot)
+        return self
+
+    def __setattr__(self, name: str, value) -> None:
+        raise AttributeError(f"an Objective is frozen: cannot set {name!r}")
+
+    def __reduce__(self):  # a pool worker gets the same objective back, by its name
+        return get, (str(self),)
+
+    @property
+    def name(self) -> str:
+        return str(self)
 
     @property
     def maximise(self) -> bool:
         return self.sense == "max"
 
+    @property
+    def voi(self) -> bool:
+        """Worth is VoI (else minus the age)."""
+        return self.worth is Worth.VOI
+
+    def better(self, a: float, b: float) -> bool:
+        """Is value a strictly better than value b?"""
+        return a > b if self.maximise else a < b
+
+    def best(self, values):
+        """The best of some values (None if there are none)."""
+        return _extreme(values, largest=self.maximise)
+
+    def tightest(self, bounds):
+        """The tightest of some proven bounds (None if there are none)."""
+        return _extreme(bounds, largest=not self.maximise)
+
 
 _ALL = (
-    Objective("min-voi", "max", "voi", per_slot=False),  # the paper's max-min formulation
-    Objective("mean-min-voi", "max", "voi", per_slot=True),  # the paper's figures and reward
-    Objective("max-aoi", "min", "aoi", per_slot=False),
-    Objective("mean-max-aoi", "min", "aoi", per_slot=True),  # the paper's "AoI-optimal" baseline
+    Objective("min-voi", "max", Worth.VOI, per_slot=False),  # the paper's max-min formulation
+    Objective("mean-min-voi", "max", Worth.VOI, per_slot=True),  # the paper's figures and reward
+    Objective("max-aoi", "min", Worth.AOI, per_slot=False),
+    Objective("mean-max-aoi", "min", Worth.AOI, per_slot=True),  # the paper's "AoI-optimal" baseline
 )
-BY_NAME: dict[str, Objective] = {o.name: o for o in _ALL}
-OBJECTIVES: dict[str, str] = {o.name: o.sense for o in _ALL}  # name -> sense
-DEFAULT = "mean-min-voi"  # the paper's figures
-AOI_DEFAULT = "mean-max-aoi"  # the paper's "AoI-optimal" scheme
+BY_NAME: dict[str, Objective] = {str(o): o for o in _ALL}
+OBJECTIVES: dict[str, str] = {str(o): o.sense for o in _ALL}  # name -> sense
+DEFAULT = BY_NAME["mean-min-voi"]  # the paper's figures
+AOI_DEFAULT = BY_NAME["mean-max-aoi"]  # the paper's "AoI-optimal" scheme
+MIN_VOI, MEAN_MIN_VOI, MAX_AOI, MEAN_MAX_AOI = _ALL
 
 
-def get(name: str) -> Objective:
-    """The objective called ``name``; an OptionError naming the choices otherwise."""
+def get(name: str | Objective) -> Objective:
+    """The objective called ``name`` (an Objective is its own); an OptionError naming the
+    choices otherwise. This is the edge where a name becomes an Objective."""
     try:
         return BY_NAME[name]
     except (KeyError, TypeError):
         raise OptionError(f"objective: unknown objective {name!r} (choose from {', '.join(BY_NAME)})") from None
 
 
-def check_objective(name: str) -> str:
-    return get(name).name
+def check_objective(name: str | Objective) -> Objective:
+    return get(name)
 
 
-def sense(name: str) -> str:
+def sense(name: str | Objective) -> str:
     return get(name).sense
 
 
-def better(objective: str, a: float, b: float) -> bool:
+def better(objective: str | Objective, a: float, b: float) -> bool:
     """Is value a strictly better than value b for this objective?"""
-    return a > b if get(objective).maximise else a < b
+    return get(objective).better(a, b)
 
 
 def _extreme(values, largest: bool):
@@ -67,14 +120,14 @@ def _extreme(values, largest: bool):
     return (max(values) if largest else min(values)) if values else None
 
 
-def best(objective: str, values):
+def best(objective: str | Objective, values):
     """The best of some values (None if there are none)."""
-    return _extreme(values, largest=get(objective).maximise)
+    return get(objective).best(values)
 
 
-def tightest(objective: str, bounds):
+def tightest(objective: str | Objective, bounds):
     """The tightest of some proven bounds (None if there are none)."""
-    return _extreme(bounds, largest=not get(objective).maximise)
+    return get(objective).tightest(bounds)
 
 
 def gap(value: float | None, bound: float | None) -> float | None:

@@ -28,6 +28,7 @@ from voiopt.core.links import is_lossy, success_probability
 from voiopt.core.plan import FleetPlan, Plan
 from voiopt.core.simulate import check_plan, simulate_indices
 from voiopt.grid import lattice as lattice_mod
+from voiopt.objectives import Worth
 
 BLOCK = 1 << 22  # entries of one step of the bottleneck DP (uploads x candidate values), at most
 
@@ -44,8 +45,8 @@ def expected_metrics(instance: Instance, plan: Plan | FleetPlan | dict) -> dict[
     uploads = sensor_uploads(instance, idx, sched)
     T = instance.horizon
     worst = {}  # (worth, per_slot) -> E[...] of the min over sensors of their worth
-    for kind in ("voi", "aoi"):
-        worth = _Worth(instance, kind)
+    for kind in Worth:
+        worth = _SensorWorth(instance, kind)
         per_slot = [[_slot_distribution(worth, i, ups, t) for i, ups in enumerate(uploads)] for t in range(1, T + 1)]
         worst[kind, True] = sum(expected_min(dists) for dists in per_slot) / T
         worst[kind, False] = expected_min([_bottleneck_survival(worth, i, ups, T) for i, ups in enumerate(uploads)])
@@ -68,15 +69,15 @@ def sensor_uploads(instance: Instance, idx: np.ndarray, sched: np.ndarray) -> li
     return out
 
 
-class _Worth:
+class _SensorWorth:
     """A sensor's worth at an age and effective distance: V (bit/s) or -A."""
 
-    def __init__(self, instance: Instance, kind: str) -> None:
+    def __init__(self, instance: Instance, kind: Worth) -> None:
         self.instance, self.kind = instance, kind
 
     def __call__(self, i: int, age: np.ndarray, dist: np.ndarray) -> np.ndarray:
         age = np.asarray(age, dtype=float)
-        if self.kind == "aoi":
+        if self.kind is Worth.AOI:
             return -age
         s = self.instance.sensors[i]
         return np.asarray(physics.voi(age, dist, s.rho, s.power_w, self.instance.channel), dtype=float).reshape(age.shape)
@@ -86,7 +87,7 @@ class _Worth:
         return -float(self.instance.sensors[i].initial_aoi), self.instance.initial_distance(i)
 
 
-def _slot_distribution(worth: _Worth, i: int, ups: np.ndarray, t: int) -> tuple[np.ndarray, np.ndarray]:
+def _slot_distribution(worth: _SensorWorth, i: int, ups: np.ndarray, t: int) -> tuple[np.ndarray, np.ndarray]:
     """Sensor i's worth in row t as a survival function: (sorted distinct values, P(W >= value))."""
     before = ups[ups[:, 0] < t]
     s0, q0 = worth.start(i)
@@ -127,7 +128,7 @@ def expected_min(dists: list[tuple[np.ndarray, np.ndarray]]) -> float:
     return float(u[0] + np.sum(np.diff(u) * tail[1:]))
 
 
-def _bottleneck_survival(worth: _Worth, i: int, ups: np.ndarray, T: int) -> tuple[np.ndarray, np.ndarray]:
+def _bottleneck_survival(worth: _SensorWorth, i: int, ups: np.ndarray, T: int) -> tuple[np.ndarray, np.ndarray]:
     """Sensor i's worth over all rows 1..T, min over t of W_i(t), as a survival function.
 
     Upload 0 is the virtual upload of the initial state (p = 1), 1..U the plan's. Between two

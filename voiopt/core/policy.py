@@ -64,7 +64,7 @@ class Policy:
             raise ValueError("a policy is a table or a plan")
         self.instance, self.objective, self.method = instance, objective, method
         self.kind = "table" if table is not None else "plan"
-        self.uses_distance = objectives.get(objective).worth == "voi"
+        self.uses_distance = objectives.get(objective).voi
         self.table = table  # (t, point, moves used, ages, rounded distances or ()) -> (u, m)
         self.plan = plan
         self.steps = Steps(instance, voi=True)

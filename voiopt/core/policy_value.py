@@ -25,7 +25,7 @@ AVERAGED = tuple(name for name, o in objectives.BY_NAME.items() if o.per_slot)  
 
 
 def _reward(policy: Policy, objective: str, state: tuple) -> float:
-    if objectives.get(objective).worth == "aoi":
+    if not objectives.get(objective).voi:
         return -float(max(state[2]))
     return policy.steps.reward(state[2], state[3])
 

@@ -19,7 +19,7 @@ from voiopt.core.instance import Instance, show
 from voiopt.core.plan import Plan
 from voiopt.core.simulate import simulate
 from voiopt.errors import VoioptError
-from voiopt.objectives import TINY, check_objective
+from voiopt.objectives import TINY
 from voiopt.runtime.files import read_json, write_json_atomic
 from voiopt.runtime.status import Status
 
@@ -66,7 +66,7 @@ class Result:
         solver: dict[str, Any] | None = None,
     ) -> Result:
         """Simulate ``plan`` and build the result; the value is the simulator's, never the solver's."""
-        check_objective(objective)
+        objective = objectives.get(objective)
         if status not in STATUSES:
             raise ValueError(f"status: unknown status {status!r}")
         status = Status(status)
@@ -79,7 +79,7 @@ class Result:
         value = metrics[objective]
         if bound is not None:
             bound = float(bound)
-            maximise = objectives.get(objective).maximise
+            maximise = objective.maximise
             violation = (value - bound) if maximise else (bound - value)
             if violation > 0:
                 # A bound can never be worse than a feasible plan; within tolerance it is solver
@@ -104,7 +104,7 @@ class Result:
         """A result on a lossy instance (MODEL.md section 11): ``metrics`` are expectations,
         computed as ``evaluation`` says (never a solver's number). ``optimal`` is claimed only
         with an exact value equal, to a relative 1e-6, to an exact bound."""
-        check_objective(objective)
+        objective = objectives.get(objective)
         if status not in STATUSES:
             raise ValueError(f"status: unknown status {status!r}")
         status = Status(status)
@@ -154,9 +154,9 @@ class Result:
         if d.get("status") not in STATUSES:  # a file's word is not taken: plot and evaluate show the status
             raise VoioptError(f"result: status: must be one of {', '.join(STATUSES)}, got {show(d.get('status'))}")
         try:
-            check_objective(d["objective"])
+            objective = objectives.get(d["objective"])
             return cls(
-                d["instance"], d["method"], d["objective"], Status(d["status"]), d["value"], d["bound"],
+                d["instance"], d["method"], objective, Status(d["status"]), d["value"], d["bound"],
                 d["gap"], d["runtime_s"], None if d["plan"] is None else Plan.from_dict(d["plan"]),
                 d["metrics"], d.get("solver", {}),
                 **{k: d[k] for k in LOSSY_FIELDS if k in d},

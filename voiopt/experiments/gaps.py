@@ -23,7 +23,7 @@ from voiopt.experiments.runner import (
     run_options,
     run_tasks,
 )
-from voiopt.objectives import check_objective
+from voiopt.objectives import Worth
 from voiopt.runtime.files import atomic_write, check_output_dir, write_csv
 from voiopt.runtime.status import Status
 from voiopt.solvers import RANDOMISED
@@ -69,7 +69,7 @@ def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | No
             "value": r.value, "bound": r.bound, "best_value": best_value, "best_bound": best_bound,
             "gap": gap, "runtime_s": r.runtime_s, "cause": cause(r),
             # Q-learning's reading of V in its reward (MODEL.md section 7); the AoI reward has no V
-            "reward_units": r.solver.get("reward_units", "") if r.solver.get("reward") != "aoi" else "",
+            "reward_units": r.solver.get("reward_units", "") if r.solver.get("reward") != Worth.AOI else "",
         })
     return rows
 
@@ -179,7 +179,7 @@ def gap_report(
     Randomised methods run with seeds seed .. seed + seeds - 1; the others once. Everything
     is checked before any work, and run.json is written only then. ``notes`` collects lines
     for the user (files skipped)."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     methods = check_methods(methods)
     options = run_options(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes,
                           reward_units=reward_units, seeds=seeds, workers=workers, dask_scheduler=dask_scheduler,

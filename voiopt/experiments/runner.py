@@ -8,7 +8,6 @@ records the settings of a folder so that two experiments are never mixed.
 from __future__ import annotations
 
 import hashlib
-import inspect
 import json
 import os
 import signal
@@ -50,7 +49,7 @@ from voiopt.runtime.stop import (
     signals_seen,
     watch,
 )
-from voiopt.solvers import METHODS, RANDOMISED, check_robots, solver_function
+from voiopt.solvers import METHODS, RANDOMISED, check_robots, options_class, solver_function
 from voiopt.solvers.base import check_limits
 
 
@@ -178,8 +177,7 @@ def run_options(*, time_limit: float | None, memory_limit: float, episodes: int 
 
 def method_options(method: str, **given: Any) -> dict[str, Any]:
     """The options a method takes, from those given (None means 'not given')."""
-    params = inspect.signature(solver_function(method)).parameters
-    return {k: v for k, v in given.items() if v is not None and k in params}
+    return options_class(method).taken({k: v for k, v in given.items() if v is not None})
 
 
 def result_path(folder: Path, instance_name: str, method: str, seed: int | None = None) -> Path:

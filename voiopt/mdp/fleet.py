@@ -26,6 +26,7 @@ from voiopt.core.simulate import advance
 from voiopt.grid import joint
 from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import robot as mdp_mod
+from voiopt.objectives import Worth
 
 MAX_JOINT_ACTIONS = 1 << 16  # the Q-table keeps a state's greedy action in 16 bits
 
@@ -139,7 +140,7 @@ class FleetMDP:
     def reward_of(self, aoi, qidx, idle: int) -> float:
         """r_{t+1}: the one-robot reward with the penalty once per robot that uploads nothing."""
         one = self.one
-        if one.reward == "aoi":
+        if one.reward == Worth.AOI:
             r = -float(max(aoi))
         else:
             r = min(float(one.voi_reward[i, a, q]) for i, (a, q) in enumerate(zip(aoi, qidx, strict=True)))

@@ -28,6 +28,7 @@ from voiopt.core.instance import Instance
 from voiopt.core.simulate import advance
 from voiopt.errors import OptionError
 from voiopt.grid import lattice as lattice_mod
+from voiopt.objectives import Worth
 
 REWARDS = ("voi", "aoi")
 REWARD_UNITS = ("bit/s", "bit/s/Hz")
@@ -122,7 +123,7 @@ class MDP:
     def reward_of(self, aoi, qidx, upload: int) -> float:
         """r_{t+1} of MODEL.md section 7 for the next state's ages and distance indices."""
         idle = self.penalty if upload < 0 else 0.0
-        if self.reward == "aoi":
+        if self.reward == Worth.AOI:
             return -float(max(aoi)) - idle
         return min(float(self.voi_reward[i, a, q]) for i, (a, q) in enumerate(zip(aoi, qidx, strict=True))) - idle
 

@@ -1,4 +1,5 @@
-"""The solver registry: method name -> ``solve(instance, objective, **options) -> Result``.
+"""The solver registry: method name -> its ``Solver`` (``solve(instance, objective, **options) -> Result``)
+and its options' dataclass.
 
 Modules are imported only when their method is used, so optional extras and numba
 compilation cost nothing until needed. Options a method does not take are rejected with a
@@ -8,29 +9,46 @@ one-line error naming the option.
 from __future__ import annotations
 
 import importlib
-import inspect
-from typing import Any
+from typing import Any, NamedTuple, Protocol, runtime_checkable
 
+from voiopt import objectives
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import Instance
 from voiopt.core.result import Result
 from voiopt.errors import OptionError
-from voiopt.objectives import DEFAULT, check_objective
+from voiopt.objectives import DEFAULT, Objective
 from voiopt.solvers import lossy_plans
 from voiopt.solvers.base import DP_MAX_ROBOTS
+from voiopt.solvers.options import Options
 
-# method name -> (module, function); each function is
-#   solve(instance, objective, *, progress=False, <its own keyword options>) -> Result
-METHODS: dict[str, tuple[str, str]] = {
-    "milp": ("voiopt.solvers.milp.solver", "solve"),
-    "dp": ("voiopt.solvers.dp.solver", "solve"),
-    "qlearning": ("voiopt.solvers.qlearning", "solve"),
-    "aoi-qlearning": ("voiopt.solvers.qlearning", "solve_aoi"),
-    "shortest-path": ("voiopt.solvers.baselines.heuristics", "shortest_path"),
-    "greedy": ("voiopt.solvers.baselines.heuristics", "greedy"),
-    "beam": ("voiopt.solvers.dp.beam", "solve"),
-    "policy-dp": ("voiopt.solvers.policy.solver", "solve"),
-    "replan": ("voiopt.solvers.policy.replan", "solve"),
+
+@runtime_checkable
+class Solver(Protocol):
+    """What every registry entry is: a function of an instance and an objective, with keyword
+    options (its ``Options``), that returns a Result whose values the simulator computed."""
+
+    def __call__(self, instance: Instance, objective: Objective, *, progress: bool = False,
+                 time_limit: float | None = None, memory_limit: float = ...) -> Result: ...
+
+
+class Method(NamedTuple):
+    """A registry entry: the module of a method, its solve function and its options' class."""
+
+    module: str
+    function: str
+    options: str
+
+
+METHODS: dict[str, Method] = {
+    "milp": Method("voiopt.solvers.milp.solver", "solve", "Options"),
+    "dp": Method("voiopt.solvers.dp.solver", "solve", "Options"),
+    "qlearning": Method("voiopt.solvers.qlearning.solver", "solve", "Options"),
+    "aoi-qlearning": Method("voiopt.solvers.qlearning.solver", "solve_aoi", "Options"),
+    "shortest-path": Method("voiopt.solvers.baselines.heuristics", "shortest_path", "ShortestPathOptions"),
+    "greedy": Method("voiopt.solvers.baselines.heuristics", "greedy", "GreedyOptions"),
+    "beam": Method("voiopt.solvers.dp.beam", "solve", "Options"),
+    "policy-dp": Method("voiopt.solvers.policy.solver", "solve", "Options"),
+    "replan": Method("voiopt.solvers.policy.replan", "solve", "Options"),
 }
 
 # methods that return a policy and value it themselves under lossy links (MODEL.md section 11);
@@ -52,12 +70,24 @@ def check_robots(instance: Instance, method: str) -> None:
                           f"(methods for several robots: {others})")
 
 
-def solver_function(method: str):
+def _entry(method: str) -> Method:
     if method not in METHODS:
         raise OptionError(f"method: unknown method {method!r} (choose from {', '.join(METHODS)})")
-    module, function = METHODS[method]
-    fn = getattr(importlib.import_module(module), function)
-    return fn if method in POLICY_METHODS else lossy_plans.plan_method(fn)  # MODEL.md 11: a plan, valued exactly
+    return METHODS[method]
+
+
+def solver_function(method: str) -> Solver:
+    """The solve function of ``method``; a plan method's is wrapped so that, on a lossy
+    instance, its plan is valued exactly (MODEL.md section 11, ``lossy_plans``)."""
+    entry = _entry(method)
+    fn = getattr(importlib.import_module(entry.module), entry.function)
+    return fn if method in POLICY_METHODS else lossy_plans.plan_method(fn)
+
+
+def options_class(method: str) -> type[Options]:
+    """The options' dataclass of ``method``."""
+    entry = _entry(method)
+    return getattr(importlib.import_module(entry.module), entry.options)
 
 
 def default_method(instance: Instance) -> str:
@@ -72,14 +102,8 @@ def solve(instance: Instance, method: str | None = None, objective: str = DEFAUL
     in the Result is simulated."""
     instance = instance_mod.as_instance(instance, "instance")
     method = default_method(instance) if method is None else method
-    check_objective(objective)
+    objective = objectives.get(objective)
     fn = solver_function(method)
     check_robots(instance, method)
-    params = inspect.signature(fn).parameters
-    if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
-        for key in options:
-            if key not in params:
-                takes = [k for k, p in params.items() if p.kind is p.KEYWORD_ONLY and k != "progress"]
-                raise OptionError(f"--{key.replace('_', '-')} ({key}= in Python): not an option of method {method!r} "
-                                  f"(it takes {', '.join(takes)})")
-    return fn(instance, objective, **options)
+    given = options_class(method).of(method, options)
+    return fn(instance, objective, **given.keywords())

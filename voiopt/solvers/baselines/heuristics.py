@@ -10,6 +10,7 @@ import dataclasses
 import itertools
 import math
 import threading
+from dataclasses import dataclass
 
 import networkx as nx
 import numpy as np
@@ -21,9 +22,10 @@ from voiopt.core.plan import Plan
 from voiopt.core.result import Result
 from voiopt.errors import check_seed
 from voiopt.grid import lattice as lattice_mod
-from voiopt.objectives import check_objective
+from voiopt.objectives import Worth
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stop, Stopped, halt_if_asked, watch
+from voiopt.solvers import options
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     check_limits,
@@ -38,7 +40,7 @@ EXACT_TOUR_MAX_SENSORS = 7  # exact order enumeration up to N! = 5040 orders
 
 
 def _is_aoi(objective: str) -> bool:
-    return objectives.get(objective).worth == "aoi"
+    return objectives.get(objective).worth == Worth.AOI
 
 
 def _steps_to_sensor(instance: Instance) -> np.ndarray:
@@ -124,6 +126,17 @@ class _Slot:
         return int(np.argmax(badness))
 
 
+@dataclass(frozen=True)
+class GreedyOptions(options.Options):
+    """greedy's options: those every method takes."""
+
+
+@dataclass(frozen=True)
+class ShortestPathOptions(options.Options):
+    """shortest-path's options (``shortest_path``'s keywords)."""
+
+    seed: int = 0
+
 def greedy(instance: Instance, objective: str, *, progress: bool = False, time_limit: float | None = None,
            memory_limit: float = DEFAULT_MEMORY_GB) -> Result:
     """Each slot, the upload and move that make the next slot best (min VoI, or max AoI).
@@ -133,7 +146,7 @@ def greedy(instance: Instance, objective: str, *, progress: bool = False, time_l
     largest first); fewest moves into range of the then worst sensor; the lookahead's whole
     vector; finally the order none < sensor 0 < ... and stay < N < S < E < W. Deterministic.
     Stopped early (time, memory, Ctrl-C), the entity stays and uploads nothing from then on."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     check_limits(time_limit, memory_limit)
     N, n = instance.n_sensors, lattice_mod.n_points(instance)
     require_memory(lattice_bytes(instance) + 8.0 * N * n + 16.0 * (N + 1) * N, memory_limit, "greedy's tables")
@@ -352,7 +365,7 @@ def shortest_path(instance: Instance, objective: str, *, progress: bool = False,
     with an end or a budget it leaves the cycle for the fewest moves to end when going on
     would leave no way there (MODEL.md section 9). Exact tour for N <= 7, a heuristic above; stopped
     early (time, memory, Ctrl-C), the best tour found so far."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     check_seed(seed)
     check_limits(time_limit, memory_limit)
     n = lattice_mod.n_points(instance)

@@ -10,27 +10,36 @@ the exact search gives none.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.plan import Plan
 from voiopt.core.result import Result
 from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
-from voiopt.objectives import check_objective
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
+from voiopt.solvers import options
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, idle_plan, require_memory
 from voiopt.solvers.dp import solver as dp
 
 WIDTHS = (2, 4, 8, 16, 32, 64)
 
 
+@dataclass(frozen=True)
+class Options(options.Options):
+    """beam's options (``solve``'s keywords)."""
+
+    max_width: int = WIDTHS[-1]
+
 def solve(instance: Instance, objective: str, *, progress: bool = False, time_limit: float | None = None,
           memory_limit: float = DEFAULT_MEMORY_GB, max_width: int = WIDTHS[-1]) -> Result:
     """Best plan of beam passes of growing width up to ``max_width`` (or the time limit)."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     check_limits(time_limit, memory_limit)
     if isinstance(max_width, bool) or not isinstance(max_width, int) or max_width < 1:
         raise OptionError(f"max_width: must be an integer >= 1, got {max_width!r}")

@@ -14,12 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.result import Result
 from voiopt.core.simulate import simulate
 from voiopt.errors import MemoryLimitError, OptionError
 from voiopt.grid import lattice as lattice_mod
-from voiopt.objectives import check_objective
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import GB, INTERRUPTED, MEMORY_LIMIT, Interrupted, Stop, Stopped, watch
@@ -217,7 +217,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     found and a proven bound, with the stop's reason as the status. Stopped before the tables
     are built, the result of ``stopped`` (baselines.stopped_result, which this module cannot
     import: the baselines import it), else status error."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     check_limits(time_limit, memory_limit)
     check_fleet(instance, memory_limit)
     require_memory(table_bytes(instance), memory_limit, "dp's tables")

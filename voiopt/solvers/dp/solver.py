@@ -9,7 +9,7 @@ change the objective are collapsed. The compiled kernels live in ``_dp_core``.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -20,9 +20,9 @@ from voiopt.core.plan import Plan
 from voiopt.core.result import Result
 from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
-from voiopt.objectives import check_objective
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import TIME_LIMIT, Stop, Stopped, watch
+from voiopt.solvers import options
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     check_limits,
@@ -73,6 +73,24 @@ def warm_up() -> float:
     return warm_up_once("dp", load)
 
 
+@dataclass(frozen=True)
+class Options(options.Options):
+    """dp's options (``solve``'s keywords)."""
+
+    warm_start: Plan | None = None
+    beam: int = DEFAULT_BEAM
+    greedy: bool = True
+    collapse: bool = True
+    bounding: bool = True
+    tdma: bool = True
+    pair_bound: bool = True
+    tour_bound: bool = True
+    subsets: bool = True
+    patterns: bool = True
+    fast_budget: int = FAST_BUDGET
+    quick_beam: int = QUICK_BEAM
+    threads: int = 1
+
 def solve(
     instance: Instance,
     objective: str,
@@ -112,7 +130,7 @@ def solve(
         return fleet_dp.solve(instance, objective, progress=progress, time_limit=time_limit, memory_limit=memory_limit,
                               warm_start=warm_start, beam=fleet_dp.FLEET_BEAM if beam == DEFAULT_BEAM else beam,
                               bounding=bounding, stopped=stopped_result)
-    check_objective(objective)
+    objective = objectives.get(objective)
     check_limits(time_limit, memory_limit)
     check_threads(threads)
     require_memory(table_bytes(instance), memory_limit, "dp's tables")

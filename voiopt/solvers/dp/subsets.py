@@ -21,6 +21,7 @@ from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.plan import Plan
 from voiopt.core.simulate import simulate
+from voiopt.objectives import Worth
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stop
@@ -59,7 +60,7 @@ def applies(objective: str, n_sensors: int) -> bool:
     in 44 s without the subsets, not in 60 s with them; `mean-max-aoi` the same bound either
     way)."""
     spec = objectives.get(objective)
-    return spec.per_slot and spec.worth == "voi" and n_sensors >= MIN_SENSORS
+    return spec.per_slot and spec.worth == Worth.VOI and n_sensors >= MIN_SENSORS
 
 
 def until(spent: float, budget: float, cap: float, times: list[float], left_out: int = 0,
@@ -179,7 +180,7 @@ def _furthest_below(instance: Instance, objective: str, plan: Plan, keep: list[i
     """The sensor outside ``keep`` whose worth under ``plan`` falls furthest below the minimum
     over ``keep`` (summed over slots 1..T), or None if none falls below it."""
     sim = simulate(instance, plan)
-    aoi = objectives.get(objective).worth == "aoi"
+    aoi = objectives.get(objective).worth == Worth.AOI
     worth = -np.asarray(sim.aoi, dtype=float)[1:] if aoi else np.asarray(sim.voi)[1:]
     below = np.clip(worth[:, keep].min(axis=1)[:, None] - worth, 0.0, None).sum(axis=0)
     below[keep] = 0.0

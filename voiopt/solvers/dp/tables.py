@@ -16,6 +16,7 @@ from voiopt.core import physics
 from voiopt.core.instance import Instance
 from voiopt.errors import VoioptError
 from voiopt.grid import lattice as lattice_mod
+from voiopt.objectives import Worth
 from voiopt.runtime.stop import Stop, halt_if_asked
 from voiopt.solvers.base import lattice_bytes, points_in_range
 
@@ -101,7 +102,7 @@ def build_tables(instance: Instance, objective: str, stop: Stop | None = None) -
 
     lat = lattice_mod.build(instance)
     T, N, n = instance.horizon, instance.n_sensors, lat.n_points
-    aoi = objectives.get(objective).worth == "aoi"
+    aoi = objectives.get(objective).worth == Worth.AOI
     # candidates (s, d): an upload in slot s at distance d; the held packet is s = -A_i(0), d = q_i(0)
     cand_lists = []
     for i, sensor in enumerate(instance.sensors):

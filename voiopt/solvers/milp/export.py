@@ -10,7 +10,6 @@ import numpy as np
 from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.errors import OptionError
-from voiopt.objectives import check_objective
 from voiopt.runtime.files import atomic_path
 from voiopt.solvers.milp.formulation import build, build_covering
 from voiopt.solvers.milp.model import Model, new_highs
@@ -25,7 +24,7 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
     and ``max-aoi``, ``covering_level`` K writes instead the bisection's covering problem for
     the K-th smallest candidate worth (0-based; ``covering_levels`` counts them): feasible iff
     some plan keeps every sensor at that worth or better in every slot."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     p = Path(path)
     if p.suffix.lower() not in EXPORT_FORMATS:
         raise OptionError(f"model: unknown format {p.suffix or '(none)'!r} of {str(p)!r} (use .mps or .lp)")

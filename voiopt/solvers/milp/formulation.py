@@ -37,6 +37,7 @@ import numpy as np
 from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.grid import lattice as lattice_mod
+from voiopt.objectives import Worth
 from voiopt.runtime.stop import halt_if_asked
 from voiopt.solvers.milp import fleet
 from voiopt.solvers.milp.model import LevelTerms, Model, Triplets
@@ -121,7 +122,7 @@ def default_scale(st: Structure, objective: str) -> float:
     """A worth unit that makes the objective O(1): the mean over slots of the cap on the slot's
     least worth (an upper bound on mean-min-voi; ``Structure.min_worth_cap``). AoI objectives
     use 1. The solver passes its warm start's value instead; ``export`` uses this."""
-    if st.kind == "aoi":
+    if st.kind == Worth.AOI:
         return 1.0
     cap = st.min_worth_cap()[1:]
     ref = float(cap.mean()) if objectives.get(objective).per_slot else float(cap.min())
@@ -198,7 +199,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None, sto
     if not (scale > 0 and math.isfinite(scale)):
         raise ValueError(f"scale: must be a positive finite number, got {scale!r}")
     lt = level_terms(st, per_slot, stop)
-    if kind == "voi" and len(lt.cap):  # z's bounds and coefficients within SCALE_RANGE of 1 (see SCALE_RANGE)
+    if kind == Worth.VOI and len(lt.cap):  # z's bounds and coefficients within SCALE_RANGE of 1 (see SCALE_RANGE)
         scale = max(scale, float(lt.cap.max()) / SCALE_RANGE)
     h_i, h_t, h_inc = lt.sensor, lt.slot, lt.increment
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from voiopt.objectives import Worth
 from voiopt.runtime.stop import halt_if_asked
 from voiopt.solvers.milp import fleet as fleet_mod
 from voiopt.solvers.milp.solution import (
@@ -142,7 +143,7 @@ class Model:
         cost = self.cost.astype(float)
         lp.sense_ = highspy.ObjSense.kMaximize
         if natural_units:
-            if self.structure.kind == "voi":
+            if self.structure.kind == Worth.VOI:
                 cost = cost * self.scale
             else:
                 cost = -cost * self.scale

@@ -20,6 +20,7 @@ from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.errors import MissingExtraError, OptionError
 from voiopt.grid import lattice as lattice_mod
+from voiopt.objectives import Worth
 from voiopt.solvers.milp import formulation as milp_formulation
 from voiopt.solvers.milp import uploads as milp_uploads
 from voiopt.solvers.milp.solution import plan_from_columns
@@ -116,7 +117,7 @@ def build(instance: Instance, objective: str, *, scale: float | None = None) -> 
     m.worth = pyo.Constraint([(int(i), int(t)) for i, t in zip(zi, zt, strict=True)], rule=worth)
 
     mean_z = sum(m.z[k] for k in slots_z) / len(slots_z)
-    if kind == "voi":
+    if kind == Worth.VOI:
         m.objective = pyo.Objective(expr=scale * mean_z, sense=pyo.maximize)
     else:
         m.objective = pyo.Objective(expr=-scale * mean_z, sense=pyo.minimize)

@@ -26,6 +26,7 @@ from voiopt.core.instance import Instance
 from voiopt.core.plan import Plan
 from voiopt.core.result import Result
 from voiopt.errors import OptionError, PlanError
+from voiopt.objectives import Worth
 from voiopt.runtime.files import MAX_JSON_BYTES
 from voiopt.runtime.status import Status
 from voiopt.solvers.milp.model import new_highs, path_names, worth_name
@@ -73,7 +74,7 @@ def _check_objective(objective: str, in_model: set[str], maximises: bool, horizo
     per_slot = worth_name(0, 2) in in_model  # z_t1: per-slot worth columns
     if not (per_slot or worth_name(0, 1) in in_model):
         return  # a covering problem (--covering-level): any plan of it is a plan
-    if (per_slot != spec.per_slot and horizon > 1) or maximises != (spec.worth == "voi"):
+    if (per_slot != spec.per_slot and horizon > 1) or maximises != (spec.worth == Worth.VOI):
         kind = ("a mean objective's" if per_slot else "a bottleneck objective's") + (
             " VoI model" if maximises else " AoI model")
         raise OptionError(f"--objective: {objective!r} does not match MODEL, {kind}: give the --objective it was "
@@ -244,7 +245,7 @@ def _check_binary(st, values: dict[str, float], col: np.ndarray, solution) -> No
 def import_solution(instance: Instance, objective: str, model: str | os.PathLike,
                     solution: str | os.PathLike) -> Result:
     """A result (method "import") from the solution of the model ``voiopt export`` wrote."""
-    objectives.check_objective(objective)
+    objective = objectives.get(objective)
     if instance.fleet:
         raise OptionError(f"import-solution: reads one robot's x_t<slot>_p<point> columns, but {instance.name} has "
                           f"{instance.n_robots} robots (solve the fleet with voiopt solve --method milp)")

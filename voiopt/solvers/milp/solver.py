@@ -23,6 +23,7 @@ import math
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any
 
@@ -35,9 +36,10 @@ from voiopt.core.result import Result
 from voiopt.core.simulate import check_plan
 from voiopt.errors import OptionError
 from voiopt.grid import lattice as lattice_mod
-from voiopt.objectives import DEFAULT, check_objective
+from voiopt.objectives import DEFAULT, Worth
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import TIME_LIMIT, Stop, Stopped, resident_bytes, watch
+from voiopt.solvers import options
 from voiopt.solvers.base import (
     DEFAULT_MEMORY_GB,
     Incumbent,
@@ -67,6 +69,15 @@ TOLERANCES = {
 }
 
 
+@dataclass(frozen=True)
+class Options(options.Options):
+    """milp's options (``solve``'s keywords)."""
+
+    gap: float | None = None
+    threads: int | None = None
+    warm_start: Plan | None = None
+    verbose: bool = False
+
 def solve(
     instance: Instance,
     objective: str = DEFAULT,
@@ -81,7 +92,7 @@ def solve(
 ) -> Result:
     """Solve ``instance`` exactly for ``objective`` (within ``time_limit`` seconds, if given).
     ``verbose`` shows HiGHS's own log on stderr."""
-    check_objective(objective)
+    objective = objectives.get(objective)
     check_limits(time_limit, memory_limit)
     if gap is not None and not gap >= 0:
         raise OptionError(f"--gap: must be >= 0, got {gap:g}")
@@ -159,7 +170,7 @@ class _Run:
 
     def worth(self, value: float) -> float:
         """An objective value as a worth (AoI objectives are minimised: worth = -A)."""
-        return value if self.kind == "voi" else -value
+        return value if self.kind == Worth.VOI else -value
 
     def remaining(self) -> float | None:
         return self.stop.remaining()
@@ -323,7 +334,7 @@ class _Run:
 
         t = time.perf_counter()
         warm_worth = self.worth(self.incumbent.value)
-        scale = warm_worth if self.kind == "voi" and warm_worth > 0 else None
+        scale = warm_worth if self.kind == Worth.VOI and warm_worth > 0 else None
         try:
             model = milp_formulation.build(self.instance, self.objective, scale=scale, stop=self.stop)
         except Stopped:  # the best plan so far (the warm start), no bound
@@ -371,7 +382,7 @@ class _Run:
         if math.isfinite(b):
             highs_w = model.worth_of_objective(b)
             w = min(w, highs_w + BOUND_RTOL * abs(highs_w) + _abs_slack(model))
-        if self.kind == "aoi":  # sum over slots of integer ages: round down to a multiple of 1/T
+        if self.kind == Worth.AOI:  # sum over slots of integer ages: round down to a multiple of 1/T
             T = self.instance.horizon
             w = math.floor(w * T + 1e-6) / T
         return w
@@ -388,7 +399,7 @@ class _Run:
             if self.out_of_time():
                 return bound
             # worths of AoI plans are multiples of 1/T: ask for the next multiple
-            step = 0.5 / self.instance.horizon if self.kind == "aoi" else PATCH_RTOL * abs(value)
+            step = 0.5 / self.instance.horizon if self.kind == Worth.AOI else PATCH_RTOL * abs(value)
             cutoff = value + step
             h = self.highs(model)
             z = model.z_cols
@@ -399,7 +410,7 @@ class _Run:
                 idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
                 self.incumbent.offer(idx, sched, source="HiGHS (patch)")
             if ms == highspy.HighsModelStatus.kInfeasible:  # as sure as HiGHS's tolerances (_abs_slack)
-                return min(bound, value if self.kind == "aoi" else cutoff + _abs_slack(model))
+                return min(bound, value if self.kind == Worth.AOI else cutoff + _abs_slack(model))
             if ms != highspy.HighsModelStatus.kOptimal:
                 return bound
             new = self._dual_bound_worth(model, info)

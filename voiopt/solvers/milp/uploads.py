@@ -18,6 +18,7 @@ import numpy as np
 from voiopt.core import physics
 from voiopt.core.instance import Instance
 from voiopt.grid import lattice as lattice_mod
+from voiopt.objectives import Worth
 from voiopt.runtime.stop import halt_if_asked
 
 # Uploads whose log-scores differ by less than this (relative) are one level (e.g. the four
@@ -139,7 +140,7 @@ def _structure(instance: Instance, kind: str, stop) -> Structure:
     power = np.array([s.power_w for s in instance.sensors])
     a0 = np.array([s.initial_aoi for s in instance.sensors], dtype=float)
     q0 = np.array([instance.initial_distance(i) for i in range(N)])
-    if kind == "voi":
+    if kind == Worth.VOI:
         worth0 = physics.voi(a0[None, :] + t_all[:, None], q0[None, :], rho, power, ch)
         log_c = np.log(physics.distance_factor(power[:, None], lat.distance, ch))  # (N, n)
     else:
@@ -151,7 +152,7 @@ def _structure(instance: Instance, kind: str, stop) -> Structure:
     for i in range(N):
         halt_if_asked(stop)  # a sensor's levels: T^2 worths (1.2 s at T = 5342 in all; checked between the steps)
         s_idx, p_idx = np.nonzero(reach & lat.in_range[i][None, :])
-        if kind == "voi":
+        if kind == Worth.VOI:
             score = -s_idx * math.log(rho[i]) + log_c[i, p_idx]
             score0 = a0[i] * math.log(rho[i]) + math.log(
                 float(physics.distance_factor(power[i], q0[i], ch))
@@ -174,7 +175,7 @@ def _structure(instance: Instance, kind: str, stop) -> Structure:
         min_slot = np.full(K, T, dtype=np.int64)
         np.minimum.at(min_slot, level, s_idx)
         first = np.minimum.accumulate(min_slot[::-1])[::-1]  # earliest slot reaching level >= l
-        if kind == "voi":
+        if kind == Worth.VOI:
             ages = t_all[:, None] - s_idx[rep][None, :]
             w = physics.voi_blocks(ages, lat.distance[i, p_idx[rep]][None, :], rho[i], power[i], ch, axis=1,
                                    block=VOI_BLOCK, stop=stop)

@@ -36,7 +36,7 @@ class Expectimax:
                  stop: Stop | None = None, tick=None) -> None:
         if objective not in AVERAGED:
             raise ValueError(f"objective {objective!r}: the expectimax takes only {', '.join(AVERAGED)}")
-        self.steps = Steps(instance, objectives.get(objective).worth == "voi", succ)
+        self.steps = Steps(instance, objectives.get(objective).voi, succ)
         self.objective, self.stop, self.tick = objective, stop, tick  # tick(states): progress, now and then
         self.T = instance.horizon
         self.memo: list[dict] = [{} for _ in range(self.T + 1)]

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from dataclasses import dataclass
 
 from voiopt.core.instance import Instance
 from voiopt.core.links import without_links
@@ -26,6 +27,7 @@ from voiopt.errors import OptionError
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
+from voiopt.solvers import options
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 from voiopt.solvers.policy.relaxation import information_relaxation
 from voiopt.solvers.policy.report import policy_result
@@ -78,6 +80,16 @@ class ReplanPolicy(Policy):
         u = result.plan.schedule[0]
         m = 0 if len(idx) < 2 else next(m for m in range(5) if lat.neighbors[idx[0], m] == idx[1])
         return (-1 if u is None else int(u), m)
+
+
+@dataclass(frozen=True)
+class Options(options.Options):
+    """replan's options (``solve``'s keywords)."""
+
+    planner: str = "dp"
+    samples: int = DEFAULT_SAMPLES
+    seed: int = 0
+    ir_samples: int = 0
 
 
 def solve(instance: Instance, objective: str, *, progress: bool = False, time_limit: float | None = None,

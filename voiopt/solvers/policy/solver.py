@@ -14,6 +14,7 @@ stop's reason as the status.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 from voiopt.core.expectation import expected_metrics
 from voiopt.core.instance import Instance
@@ -25,6 +26,7 @@ from voiopt.objectives import check_objective
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
+from voiopt.solvers import options
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 from voiopt.solvers.policy.expectimax import AVERAGED, Expectimax
 from voiopt.solvers.policy.report import policy_result
@@ -44,6 +46,11 @@ def lossless_optimum(instance: Instance, objective: str, time_limit: float | Non
     from voiopt.solvers.dp import solver as dp
 
     return dp.solve(without_links(instance), objective, time_limit=time_limit, memory_limit=memory_limit)
+
+
+@dataclass(frozen=True)
+class Options(options.Options):
+    """policy-dp's options: the common ones (progress, time and memory limits)."""
 
 
 def solve(instance: Instance, objective: str, *, progress: bool = False, time_limit: float | None = None,

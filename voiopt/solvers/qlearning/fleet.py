@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt.mdp import fleet as fleet_mdp
+from voiopt.objectives import Worth
 from voiopt.runtime.jit import njit
 from voiopt.solvers.qlearning.kernels import slot_reward
 from voiopt.solvers.qlearning.rng import GOLDEN, S11, TWO_M53, mix
@@ -238,7 +239,7 @@ def train(model: fleet_mdp.FleetMDP, table: QTable, n_episodes: int, eps: np.nda
     Returns (episodes run, False if stopped by the memory limit)."""
     one = model.one
     return table.run(n_episodes, lambda n: _train(
-        n, model.horizon, eps, eps0, beta, gamma, table.q_init, one.penalty, one.reward == "aoi",
+        n, model.horizon, eps, eps0, beta, gamma, table.q_init, one.penalty, one.reward == Worth.AOI,
         int(one.slot_in_state), *_arrays(model), one.voi_reward, model.field_word, model.field_shift,
         table.table, table.table.view(np.float64), table.pool, table.counts, rng, *_masks(model),
     ))

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt.mdp import robot as mdp_mod
+from voiopt.objectives import Worth
 from voiopt.runtime.jit import njit, prefetch
 from voiopt.solvers.qlearning.rng import GOLDEN, S11, TWO_M53, mix
 from voiopt.solvers.qlearning.table import (
@@ -330,7 +331,7 @@ def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, e
     Returns (episodes run, False if stopped by the memory limit)."""
     return table.run(n_episodes, lambda n: _train(
         n, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
-        model.reward == "aoi", int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
+        model.reward == Worth.AOI, int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
         model.action_upload, model.action_next, model.voi_reward, model.field_word,
         model.field_shift, model.field_width, table.table, table.table.view(np.float64), table.pool,
         table.counts, rng, model.masked, model.to_end, model.budget,

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from voiopt.objectives import Worth
 from voiopt.runtime.jit import njit
 from voiopt.solvers.qlearning.kernels import masked_best, masked_draw, set_field, slot_reward
 from voiopt.solvers.qlearning.rng import GOLDEN, S11, TWO_M53, mix
@@ -178,7 +179,7 @@ def train_lossy(model, table, n_episodes: int, eps: np.ndarray, eps0: float, bet
     """Run n_episodes of Algorithm 1 with outcomes drawn, growing the table as needed."""
     return table.run(n_episodes, lambda n: _train_lossy(
         n, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
-        model.reward == "aoi", int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
+        model.reward == Worth.AOI, int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
         model.action_upload, model.action_next, model.voi_reward, model.field_word,
         model.field_shift, model.field_width, table.table, table.table.view(np.float64), table.pool,
         table.counts, rng, model.masked, model.to_end, model.budget, succ,

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
+from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.links import is_lossy
 from voiopt.core.plan import Plan
@@ -25,11 +27,11 @@ from voiopt.grid import joint
 from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import fleet as fleet_mdp
 from voiopt.mdp import robot as mdp_mod
-from voiopt.objectives import AOI_DEFAULT, DEFAULT, check_objective
+from voiopt.objectives import AOI_DEFAULT, DEFAULT
 from voiopt.runtime.progress import progress_bar, text_column
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
-from voiopt.solvers import base
+from voiopt.solvers import base, options
 from voiopt.solvers.qlearning import fleet as fleet_kernels
 from voiopt.solvers.qlearning.kernels import rollout, train
 from voiopt.solvers.qlearning.rng import seed_state
@@ -110,7 +112,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
          episodes: int, seed: int, beta: float, gamma: float, q_init: float, penalty: float,
          time_limit: float | None, memory_limit: float, slot_in_state: bool, reward_units: str,
          samples: int = DEFAULT_SAMPLES, ir_samples: int = 0) -> Result:
-    check_objective(objective)
+    objective = objectives.get(objective)
     _check_options(episodes, seed, beta, gamma, q_init, penalty)
     check_seed(seed)
     check_stream_seeds(seed)
@@ -194,6 +196,21 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         status=(stop.reason if done < episodes else None) or Status.FEASIBLE, runtime_s=stop.elapsed(), solver=solver,
     )
 
+
+@dataclass(frozen=True)
+class Options(options.Options):
+    """Q-learning's options (``solve``'s and ``solve_aoi``'s keywords)."""
+
+    episodes: int = EPISODES
+    seed: int = 0
+    beta: float = BETA
+    gamma: float = GAMMA
+    q_init: float = 0.0
+    penalty: float = mdp_mod.IDLE_PENALTY
+    slot_in_state: bool = False
+    reward_units: str = "bit/s"
+    samples: int = DEFAULT_SAMPLES  # lossy links: coupled scenarios of a Monte Carlo value
+    ir_samples: int = 0  # lossy links: scenarios of the information-relaxation bound (0: none)
 
 def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = False,
           episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,

@@ -1,0 +1,54 @@
+"""Each method's options as a typed, frozen dataclass, checked once at the API edge.
+
+Every method's options subclass ``Options`` (what all methods take: progress, the time limit
+in seconds, the memory limit in GB) in the method's own module, with the same names and
+defaults as the keyword options of its solve function (tests/solvers/test_registry.py holds
+the two together). ``solvers.solve`` builds the options from the keywords it is given, so a
+misspelt option is refused in one line, naming what the method takes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from typing import Any
+
+from voiopt.errors import OptionError
+from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
+
+
+@dataclass(frozen=True)
+class Options:
+    progress: bool = False
+    time_limit: float | None = None  # seconds
+    memory_limit: float = DEFAULT_MEMORY_GB  # GB
+
+    def __post_init__(self) -> None:
+        check_limits(self.time_limit, self.memory_limit)
+
+    @classmethod
+    def names(cls) -> list[str]:
+        return [f.name for f in fields(cls)]
+
+    @classmethod
+    def of(cls, method: str, given: Mapping[str, Any], cli: bool = False) -> Options:
+        """The options of ``method`` from keywords; an unknown one is an OptionError that lists
+        what the method takes, as command-line flags where ``cli``, else as keywords."""
+        names = cls.names()
+        for key in given:
+            if key not in names:
+                takes = [n for n in names if n != "progress"]
+                shown = [f"--{n.replace('_', '-')}" for n in takes] if cli else takes
+                raise OptionError(f"--{key.replace('_', '-')} ({key}= in Python): not an option of method "
+                                  f"{method!r} (it takes {', '.join(shown)})")
+        return cls(**given)
+
+    @classmethod
+    def taken(cls, given: Mapping[str, Any]) -> dict[str, Any]:
+        """Of some keywords, those this method takes (a sweep gives every method the same ones)."""
+        names = set(cls.names())
+        return {k: v for k, v in given.items() if k in names}
+
+    def keywords(self) -> dict[str, Any]:
+        """The options as the solve function's keywords."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
