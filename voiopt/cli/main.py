@@ -17,6 +17,7 @@ from voiopt.cli import lossy as cli_lossy
 from voiopt.cli import policy as cli_policy
 from voiopt.cli.arguments import Parser, at_least, count
 from voiopt.cli.bench import add_commands as add_bench_commands
+from voiopt.cli.view import add_commands as add_view_commands
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import show
 from voiopt.core.plan import plan_of
@@ -238,8 +239,7 @@ def cmd_figures(args) -> int:
 
     files = make_figures(
         args.out, networks=args.networks, robot_networks=args.robot_networks, episodes=args.episodes,
-        time_limit=args.time_limit,
-        memory_limit=args.memory_limit,
+        time_limit=args.time_limit, memory_limit=args.memory_limit,
         seed=args.seed, seeds=args.seeds, reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
@@ -423,6 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="(default: the shipped case study, instances/case-study.json)")
 
     add_bench_commands(sub, _command, _add_executor_options, count)
+    add_view_commands(sub, _command)
     return p
 
 
