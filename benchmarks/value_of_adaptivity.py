@@ -12,13 +12,10 @@ the table). Writes docs/results/value_of_adaptivity.md.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+import sys
 
 import voiopt
 from voiopt.core.instance import from_dict
-from voiopt.runtime.files import atomic_write
-
-OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "value_of_adaptivity.md"
 
 
 def main() -> None:
@@ -61,11 +58,10 @@ def main() -> None:
         mean = sum(qv) / len(qv)
         lines.append(f"| {p:g} | {opt.value:.6g} ({opt.status}) | {pct(replan.value)} | {pct(plan.value)} | "
                      f"{pct(mean)} [{min(qv):.6g}, {max(qv):.6g}] | {how} | {opt.solver['lossless']['bound']:.6g} |")
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_write(OUT) as f:
-        f.write("\n".join(lines) + "\n")
-    print(f"written to {OUT}")
+    print("\n".join(lines))
 
 
 if __name__ == "__main__":
-    main()
+    import report
+
+    sys.exit(report.run("value_of_adaptivity", main))
