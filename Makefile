@@ -4,8 +4,9 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 TSTAMP := $(VENV)/.installed-test
+DSTAMP := $(VENV)/.installed-docs
 
-.PHONY: demo test bench lint clean
+.PHONY: demo test bench results apidocs lint clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -19,6 +20,10 @@ $(TSTAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e ".[test,rl,dask,pyomo]"
 	touch $(STAMP) $@
 
+$(DSTAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[docs,rl]"
+	touch $(STAMP) $@
+
 demo: $(STAMP)
 	$(BIN)/voiopt demo
 
@@ -27,6 +32,19 @@ test: $(TSTAMP)
 
 bench: $(TSTAMP)
 	$(BIN)/python benchmarks/run_all.py
+
+# Every benchmark that backs a number in the docs, at its full setting, each writing
+# docs/results/<name>.md: several hours (docs/reproduce.md).
+results: $(TSTAMP)
+	$(BIN)/python benchmarks/run_all.py --results
+
+# The API reference from the public docstrings, as HTML in build/api/ (open build/api/index.html).
+# Every sub-package and root module is named: voiopt's __all__ alone would hide them.
+API_MODULES := voiopt $(patsubst %/__init__.py,%,$(wildcard voiopt/*/__init__.py)) \
+	$(filter-out voiopt/__init__.py voiopt/__main__.py,$(wildcard voiopt/*.py))
+apidocs: $(DSTAMP)
+	rm -rf build/api
+	$(BIN)/python -m pdoc --docformat markdown -o build/api $(API_MODULES)
 
 lint: $(TSTAMP)
 	$(BIN)/ruff check voiopt tests benchmarks

@@ -188,4 +188,6 @@ def _print_row(row: dict, header: bool) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import report
+
+    sys.exit(report.run("exact_scale", main))

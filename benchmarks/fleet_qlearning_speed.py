@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 
 import voiopt
 from voiopt.core.instance import from_dict
@@ -45,4 +46,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import report
+
+    sys.exit(report.run("fleet_qlearning_speed", main))

@@ -99,4 +99,6 @@ def _row(name, n, T, method, certified, times, gaps) -> None:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    import report
+
+    sys.exit(report.run("fleet_scale", main))

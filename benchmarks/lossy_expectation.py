@@ -13,6 +13,7 @@ an estimate (its 95 % CI half-width is shown against the exact value's error, wh
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 import voiopt
@@ -51,4 +52,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    import report
+
+    sys.exit(report.run("lossy_expectation", main))

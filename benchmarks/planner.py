@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 
 import voiopt
 from voiopt.objectives import gap
@@ -61,4 +62,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    import report
+
+    sys.exit(report.run("planner", main))

@@ -67,4 +67,6 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import report
+
+    sys.exit(report.run("qlearning_phases", main))

@@ -170,4 +170,6 @@ def command_line(networks, args, reference) -> tuple[int, list[float], list[floa
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import report
+
+    sys.exit(report.run("qlearning_speed", main))

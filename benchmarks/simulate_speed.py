@@ -13,6 +13,7 @@ the dynamics as MODEL.md section 3 states them: ``advance`` slot by slot, then
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
 import numpy as np
@@ -49,4 +50,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    import report
+
+    sys.exit(report.run("simulate_speed", main))

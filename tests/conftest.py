@@ -201,3 +201,14 @@ def stop_at_check(monkeypatch, n: int) -> None:
         return check(self, memory_used)
 
     monkeypatch.setattr(stop_mod.Stop, "check", late_check)
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Say plainly, at the end of the run, when the browser tests of the viewer did not run
+    (no Chromium here: .ci/run installs it, so CI always runs them)."""
+    skipped = [r for r in terminalreporter.stats.get("skipped", [])
+               if "browser tests did not run" in str(getattr(r, "longrepr", ""))]
+    if skipped:
+        reason = str(skipped[0].longrepr[-1]) if isinstance(skipped[0].longrepr, tuple) else str(skipped[0].longrepr)
+        terminalreporter.write_sep("!", "BROWSER TESTS DID NOT RUN", red=True, bold=True)
+        terminalreporter.write_line(f"{len(skipped)} test(s) of voiopt show in headless Chromium were skipped: {reason}")

@@ -140,7 +140,7 @@ def test_rgb_render_is_an_image(case_study):
     env.reset()
     img = env.render()
     assert img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3
-    assert (img == [220, 40, 40]).all(axis=2).any()  # the entity is drawn
+    assert (img == [0x1F, 0x77, 0xB4]).all(axis=2).any()  # the robot is drawn (robot 0's colour)
 
 
 @pytest.mark.parametrize("kwargs, message", [

@@ -24,6 +24,7 @@ _HOMES = {
     **dict.fromkeys(("case_study", "generate", "generate_set"), "voiopt.networks.generate"),
     **dict.fromkeys(("Channel", "Instance", "Links", "Robot", "Sensor", "load", "save"), "voiopt.core.instance"),
     "OBJECTIVES": "voiopt.objectives",
+    "Policy": "voiopt.core.policy",
     "expected_metrics": "voiopt.core.expectation",
     **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.core.plan"),
     **dict.fromkeys(("Result", "load_result"), "voiopt.core.result"),
@@ -56,7 +57,7 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "Channel", "FleetPlan", "Instance", "InstanceError", "Links", "METHODS", "OBJECTIVES", "OptionError", "Plan",
-    "PlanError", "Result", "Robot", "Sensor", "Status", "Trajectory", "VoioptError", "case_study", "evaluate",
+    "PlanError", "Policy", "Result", "Robot", "Sensor", "Status", "Trajectory", "VoioptError", "case_study", "evaluate",
     "expected_metrics",
     "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
 ]

@@ -35,7 +35,6 @@ the joint action, Discrete(((N + 1) * 5) ** K), with an exact mask of the legal 
 
 from __future__ import annotations
 
-import inspect
 import math
 from typing import Any
 
@@ -53,76 +52,31 @@ except ImportError as e:  # pragma: no cover - depends on the installed extras
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import Instance
 from voiopt.core.plan import Plan
+from voiopt.envs.checks import SAMPLE, as_integer, check_normalisable, check_sample, reset_options
 from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import robot as mdp_mod
 from voiopt.mdp.outcomes import Outcomes
 from voiopt.networks.generate import generate as generate_network
 from voiopt.objectives import MEAN_MIN_VOI
 from voiopt.runtime.status import Status
+from voiopt.viewer import frames
 
 ENV_ID = "voiopt/VoICollection-v0"
-CELL = 24  # pixels per lattice point in rgb_array renders
-SAMPLE = dict(n_sensors=4, horizon=30, width=5.0, height=5.0)  # the paper's setting, for sampled networks
 REWARD_MODES = ("paper", "normalised")
 INFEASIBLE = ("raise", "penalise")
 _OPTIMA: dict[Instance, float] = {}  # the normalising optimum of each instance met in this process
 
 
-def _check_normalisable(instance: Instance) -> None:
-    """The normalised reward divides by a proven optimum: an instance whose VoI-Lib certificate
-    is still open has none (dp would search for it without end), so it is refused up front."""
-    from voiopt.voilib import library as voilib
-
-    interval = voilib.open_certificate(instance, MEAN_MIN_VOI)
-    if interval is not None:
-        raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and VoI-Lib's mean-min-voi certificate "
-                          f"of {instance.name} is open ({interval}); use 'paper'")
-
-
-def as_integer(action: Any, must: str = "an integer", what: str = "action") -> int:
-    """An action as an int: a Python or numpy integer, or a one-element integer array (what
-    agents pass). Anything else (0.7, "3", True) is refused, not truncated to an action."""
-    whole = action.item() if isinstance(action, np.ndarray) and action.size == 1 else action
-    if isinstance(whole, bool) or not isinstance(whole, (int, np.integer)):
-        raise OptionError(f"{what}: must be {must}, got {action!r}")
-    return int(whole)
-
-
-def reset_options(options: Any) -> dict:
-    """reset()'s options as a dict ({} for None); anything else is refused in one line."""
-    if options is None:
-        return {}
-    if not isinstance(options, dict):
-        raise OptionError(f"options: must be a dict such as {{'instance': path}}, got {options!r}")
-    return options
-
-
-def _check_sample(sample: Any) -> dict:
-    """The keyword arguments of voiopt.networks.generate for sampled networks (without ``seed``)."""
-    if sample is None:
-        return {}
-    allowed = [k for k in inspect.signature(generate_network).parameters if k != "seed"]
-    if not isinstance(sample, dict):
-        raise OptionError(f"sample: must be a dict of voiopt.networks.generate's arguments, got {sample!r}")
-    unknown = [k for k in sample if k not in allowed]
-    if unknown:
-        raise OptionError(f"sample: unknown key {unknown[0]!r} (allowed: {', '.join(allowed)})")
-    if sample.get("robots", 1) != 1:  # a FleetVoIEnv is made from a fleet instance, not sampled
-        raise OptionError(f"sample: robots: the env samples one-robot networks, got {sample['robots']!r} "
-                          "(pass instance= a fleet's instance for several robots)")
-    return sample
-
-
 class VoIEnv(gym.Env):
     """The entity's slot-by-slot decision (upload, move) with the paper's reward."""
 
-    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+    metadata = {"render_modes": ["ansi", "rgb_array", "human"], "render_fps": 4}
 
     def __init__(self, instance: Instance | None = None, reward: str = "voi", render_mode: str | None = None,
                  penalty: float = mdp_mod.IDLE_PENALTY, reward_units: str = "bit/s", reward_mode: str = "paper",
                  infeasible: str = "raise", observe_sensors: bool = False, sample: dict | None = None):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise OptionError(f"render_mode: must be 'ansi' or 'rgb_array', got {render_mode!r}")
+            raise OptionError(f"render_mode: must be 'ansi', 'rgb_array' or 'human', got {render_mode!r}")
         if reward_mode not in REWARD_MODES:
             raise OptionError(f"reward_mode: must be 'paper' or 'normalised', got {reward_mode!r}")
         if reward_mode == "normalised" and reward != Worth.VOI:
@@ -133,11 +87,12 @@ class VoIEnv(gym.Env):
         if not isinstance(observe_sensors, (bool, np.bool_)):  # "no" would be true
             raise OptionError(f"observe_sensors: must be True or False, got {observe_sensors!r}")
         self.render_mode = render_mode
+        self._painter = self._window = None
         self.options = dict(reward=reward, penalty=penalty, reward_units=reward_units)
         self.reward_mode, self.infeasible, self.observe_sensors = reward_mode, infeasible, bool(observe_sensors)
         if instance is not None and sample is not None:
             raise OptionError("sample: draws the networks of an env without an instance; got instance= as well")
-        self.sample = None if instance is not None else {**SAMPLE, **_check_sample(sample)}
+        self.sample = None if instance is not None else {**SAMPLE, **check_sample(sample)}
         self._started = False  # by reset(): a step before it is refused (gymnasium.make's wrapper does the same)
         given = self.__dict__.pop("_given", None)
         if given is None and instance is not None:
@@ -163,7 +118,7 @@ class VoIEnv(gym.Env):
 
     def _load(self, instance: Instance) -> None:
         if self.reward_mode == "normalised":
-            _check_normalisable(instance)
+            check_normalisable(instance)
         self.instance = instance
         self.model = mdp_mod.build(instance, self.options["reward"], self.options["penalty"],
                                    reward_units=self.options["reward_units"])
@@ -332,6 +287,8 @@ class VoIEnv(gym.Env):
             return self._ansi()
         if self.render_mode == "rgb_array":
             return self._rgb()
+        if self.render_mode == "human":  # a window; where none can open, a warning once and nothing
+            self._human()
         return None
 
     def _ansi(self) -> str:
@@ -354,26 +311,30 @@ class VoIEnv(gym.Env):
         return "\n".join(rows) + "\n"
 
     def _rgb(self) -> np.ndarray:
-        lat, points = self.lattice, self._points()
-        img = np.full((lat.ny * CELL, lat.nx * CELL, 3), 255, dtype=np.uint8)
-        for q in range(lat.n_points):
-            k, l = lat.coords[q]
-            y0, x0 = (lat.ny - 1 - l) * CELL, k * CELL
-            color = (230, 230, 230)
-            if lat.in_range[:, q].any():
-                color = (170, 200, 255)
-            if lat.blocked[q]:
-                color = (80, 80, 80)
-            if q == lat.end:
-                color = (60, 170, 60)
-            if q in points:
-                color = (220, 40, 40)
-            img[y0 + 2: y0 + CELL - 2, x0 + 2: x0 + CELL - 2] = color
-        for s in self.instance.sensors:
-            x = int(round(s.position[0] / lat.step * CELL + CELL / 2))
-            y = int(round((lat.ny - 1 - s.position[1] / lat.step) * CELL + CELL / 2))
-            img[max(y - 3, 0): y + 3, max(x - 3, 0): x + 3] = (20, 60, 200)
-        return img
+        """The current slot as voiopt.viewer.frames draws it: a (H, W, 3) uint8 array of one
+        fixed shape (frames.SIZE_PX), whatever the instance."""
+        if self._painter is None or self._painter.instance is not self.instance:
+            self._painter = frames.Painter(self.instance, self.instance.name)
+        return self._painter.rgb(self.current_slot())
+
+    def current_slot(self) -> frames.Slot:
+        """What render() draws: slot t, each robot's points p(0..t) and uploads u(0..t-1), and V_i(t), A_i(t)."""
+        _, aoi, qidx, *_ = self.state
+        inst, lat = self.instance, self.lattice
+        dist = [inst.initial_distance(i) if q == 0 else lat.distance[i, q - 1] for i, q in enumerate(qidx)]
+        paths, uploads = (self._positions, self._schedule) if inst.fleet else ([self._positions], [self._schedule])
+        return frames.from_points(inst, self.t, [[*path, p] for path, p in zip(paths, self._points(), strict=True)],
+                                  [[*up, -1] for up in uploads], aoi, dist)
+
+    def _human(self) -> None:
+        self._window = self._window or frames.Window(self.metadata["render_fps"])
+        self._window.show(self._rgb())
+
+    def close(self) -> None:
+        if getattr(self, "_window", None) is not None:
+            self._window.close()
+            self._window = None
+        super().close()
 
 
 MAX_JOINT_ACTIONS = 1 << 22  # the longest joint action mask a FleetVoIEnv offers

@@ -45,14 +45,15 @@ except ImportError as e:  # pragma: no cover - depends on the installed extras
 
 from voiopt.core.instance import Instance
 from voiopt.core.plan import FleetPlan, Plan
-from voiopt.env import VoIEnv, as_integer, reset_options
+from voiopt.env import VoIEnv
+from voiopt.envs.checks import as_integer, reset_options
 from voiopt.mdp import robot as mdp_mod
 
 
 class VoIParallelEnv(ParallelEnv):
     """One agent per robot over VoIEnv's joint decision; see the module's docstring."""
 
-    metadata = {"render_modes": ["ansi", "rgb_array"], "name": "voiopt_fleet_v0", "is_parallelizable": True}
+    metadata = {"render_modes": ["ansi", "rgb_array", "human"], "name": "voiopt_fleet_v0", "is_parallelizable": True}
 
     def __init__(self, instance: Instance, reward: str = "voi", render_mode: str | None = None,
                  penalty: float = mdp_mod.IDLE_PENALTY, reward_units: str = "bit/s", observe_sensors: bool = False):

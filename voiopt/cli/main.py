@@ -14,8 +14,10 @@ from rich.table import Table
 
 import voiopt
 from voiopt.cli import lossy as cli_lossy
+from voiopt.cli import policy as cli_policy
 from voiopt.cli.arguments import Parser, at_least, count
 from voiopt.cli.bench import add_commands as add_bench_commands
+from voiopt.cli.view import add_commands as add_view_commands
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import show
 from voiopt.core.plan import plan_of
@@ -46,7 +48,7 @@ def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
     for m in OBJECTIVES:
         table.add_column(m, justify="right")
     for name, metrics in rows.items():
-        table.add_row(name, *(f"{metrics[m]:.6g}" for m in OBJECTIVES))
+        table.add_row(name, *(f"{metrics[m]:.6g}" if m in metrics else "-" for m in OBJECTIVES))
     return table
 
 
@@ -159,7 +161,7 @@ def cmd_generate(args) -> int:
 
 def _solve_options(args, inst) -> dict:
     opts = {}
-    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units"):
+    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units", *cli_policy.POLICY_OPTIONS):
         v = getattr(args, key, None)
         if v is not None:
             opts[key] = v
@@ -182,7 +184,7 @@ def cmd_solve(args) -> int:
     if args.output is not None:  # before the work, not after it
         check_output_file(args.output, inputs=[("INSTANCE", args.instance), ("--warm-start", args.warm_start)])
     inst = instance_mod.load(args.instance)
-    result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst))
+    result = cli_policy.save_policy(cli_policy.policy_path(args), voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst)))
     if args.output:
         result.save(args.output)
     if args.json:
@@ -237,8 +239,7 @@ def cmd_figures(args) -> int:
 
     files = make_figures(
         args.out, networks=args.networks, robot_networks=args.robot_networks, episodes=args.episodes,
-        time_limit=args.time_limit,
-        memory_limit=args.memory_limit,
+        time_limit=args.time_limit, memory_limit=args.memory_limit,
         seed=args.seed, seeds=args.seeds, reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler, progress=not args.quiet,
     )
     if not args.quiet:
@@ -374,7 +375,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print the result JSON to stdout")
     s.add_argument("--quiet", action="store_true", help="print nothing but errors")
     s.add_argument("--verbose", action="store_true", help="milp: show HiGHS's own log on stderr")
-    s.set_defaults(func=cmd_solve)
+    cli_policy.add_policy_option(s).set_defaults(func=cmd_solve)
 
     s = _command(sub, "export", "write the MILP of an instance as MPS or LP (by extension; min-voi's objective is "
                  "ln of the min VoI, see the file's comments)", cmd_export)
@@ -423,6 +424,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="(default: the shipped case study, instances/case-study.json)")
 
     add_bench_commands(sub, _command, _add_executor_options, count)
+    add_view_commands(sub, _command)
     return p
 
 

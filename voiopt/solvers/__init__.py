@@ -47,11 +47,13 @@ METHODS: dict[str, Method] = {
     "shortest-path": Method("voiopt.solvers.baselines.heuristics", "shortest_path", "ShortestPathOptions"),
     "greedy": Method("voiopt.solvers.baselines.heuristics", "greedy", "GreedyOptions"),
     "beam": Method("voiopt.solvers.dp.beam", "solve", "Options"),
+    "policy-dp": Method("voiopt.solvers.policy.solver", "solve", "Options"),
+    "replan": Method("voiopt.solvers.policy.replan", "solve", "Options"),
 }
 
 # methods that return a policy and value it themselves under lossy links (MODEL.md section 11);
 # every other method's plan is valued by its exact expectation (voiopt.solvers.lossy_plans)
-POLICY_METHODS: frozenset[str] = frozenset()
+POLICY_METHODS: frozenset[str] = frozenset({"policy-dp", "replan", "qlearning", "aoi-qlearning"})
 
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds
 RANDOMISED = frozenset({"qlearning", "aoi-qlearning"})

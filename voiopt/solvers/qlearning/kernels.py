@@ -40,7 +40,7 @@ RING = 16  # a power of two > AHEAD: the cursor's keys and actions by slot, modu
 
 
 @njit(cache=True, inline="always")
-def _set_field(k0, key, f, value, field_word, field_shift, clear):
+def set_field(k0, key, f, value, field_word, field_shift, clear):
     """Set packed field f to value in the key (k0 is its first word, kept in a register);
     returns the new first word."""
     v = np.uint64(value) << np.uint64(field_shift[f])
@@ -81,7 +81,7 @@ def _feasible(p, k, t, moves, horizon, action_next, to_end, budget):
 
 
 @njit(cache=True)
-def _masked_best(pool, row, p, t, moves, n, horizon, action_next, to_end, budget):
+def masked_best(pool, row, p, t, moves, n, horizon, action_next, to_end, budget):
     """(first feasible action of maximal Q-value, its value) in the Q row starting at pool[row]."""
     best_k = -1
     best = 0.0
@@ -93,7 +93,7 @@ def _masked_best(pool, row, p, t, moves, n, horizon, action_next, to_end, budget
 
 
 @njit(cache=True)
-def _masked_draw(x, p, t, moves, n, horizon, action_next, to_end, budget):
+def masked_draw(x, p, t, moves, n, horizon, action_next, to_end, budget):
     """The action at uniform x in [0, 1) among the feasible ones, in action order."""
     nf = 0
     for j in range(n):
@@ -179,11 +179,11 @@ def _train(
                 state += GOLDEN
                 x2 = float(mix(state) >> S11) * TWO_M53
                 if masked:
-                    k = _masked_draw(x2, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+                    k = masked_draw(x2, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
                 else:
                     k = int(x2 * n_actions[p])
             elif masked:
-                k, _ = _masked_best(pool, row_start(table, cur), p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+                k, _ = masked_best(pool, row_start(table, cur), p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
             else:
                 k = greedy_action(table, cur)
             u = action_upload[p, k]
@@ -198,12 +198,12 @@ def _train(
                 key[w] += inc[w]
             k0 = (k0 & pclear) | (np.uint64(p_next) << ps)
             if u >= 0:
-                k0 = _set_field(k0, key, 1 + 2 * u, 1, field_word, field_shift, clear)  # A_u = 1
-                k0 = _set_field(k0, key, 2 + 2 * u, 1 + p, field_word, field_shift, clear)  # q_u: from p
+                k0 = set_field(k0, key, 1 + 2 * u, 1, field_word, field_shift, clear)  # A_u = 1
+                k0 = set_field(k0, key, 2 + 2 * u, 1 + p, field_word, field_shift, clear)  # q_u: from p
             if p_next != p:
                 moves += 1
                 if moves_field:
-                    k0 = _set_field(k0, key, 2 * N + 2, moves, field_word, field_shift, clear)
+                    k0 = set_field(k0, key, 2 * N + 2, moves, field_word, field_shift, clear)
             if ahead:  # the look-ahead cursor (module docstring)
                 if cursor <= t + 1:  # the episode has caught up: restart the cursor at s_{t+1}
                     cursor, stuck, la_k0, la_p, la_rng = t + 1, False, k0, p_next, state
@@ -225,8 +225,8 @@ def _train(
                     la_u, la_next = action_upload[la_p, la_k], action_next[la_p, la_k]
                     la_k0 = ((la_k0 + inc0) & pclear) | (np.uint64(la_next) << ps)
                     if la_u >= 0:
-                        la_k0 = _set_field(la_k0, la_key, 1 + 2 * la_u, 1, field_word, field_shift, clear)
-                        la_k0 = _set_field(la_k0, la_key, 2 + 2 * la_u, 1 + la_p, field_word, field_shift, clear)
+                        la_k0 = set_field(la_k0, la_key, 1 + 2 * la_u, 1, field_word, field_shift, clear)
+                        la_k0 = set_field(la_k0, la_key, 2 + 2 * la_u, 1 + la_p, field_word, field_shift, clear)
                     la_p = la_next
                     cursor += 1
                     prefetch(table, home_slot(la_k0, la_key, table))
@@ -241,7 +241,7 @@ def _train(
             # find s_{t+1}; store it unless it is s_T (never acted in)
             nxt, found = find(k0, key, table)
             if found and masked and t + 1 < horizon:  # the best feasible action of s_{t+1}
-                _, future = _masked_best(pool, row_start(table, nxt), p_next, t + 1, moves, n_actions[p_next], horizon, action_next,
+                _, future = masked_best(pool, row_start(table, nxt), p_next, t + 1, moves, n_actions[p_next], horizon, action_next,
                                          to_end, budget)
             elif found:
                 future = tablef[nxt, QMAX]
@@ -306,9 +306,9 @@ def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_uploa
         s, found = find(key[0], key, table)
         if masked:
             if found:
-                k, _ = _masked_best(pool, row_start(table, s), p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+                k, _ = masked_best(pool, row_start(table, s), p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
             else:
-                k = _masked_draw(0.0, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
+                k = masked_draw(0.0, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
         else:
             k = greedy_action(table, s) if found else 0
         u = action_upload[p, k]

@@ -11,7 +11,9 @@ import numpy as np
 
 from voiopt import objectives
 from voiopt.core.instance import Instance
+from voiopt.core.links import is_lossy
 from voiopt.core.plan import Plan
+from voiopt.core.policy_value import DEFAULT_SAMPLES
 from voiopt.core.result import Result
 from voiopt.core.simulate import simulate_indices
 from voiopt.errors import (
@@ -108,7 +110,8 @@ METHOD_OF_REWARD = {"voi": "qlearning", "aoi": "aoi-qlearning"}
 
 def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
          episodes: int, seed: int, beta: float, gamma: float, q_init: float, penalty: float,
-         time_limit: float | None, memory_limit: float, slot_in_state: bool, reward_units: str) -> Result:
+         time_limit: float | None, memory_limit: float, slot_in_state: bool, reward_units: str,
+         samples: int = DEFAULT_SAMPLES, ir_samples: int = 0) -> Result:
     objective = objectives.get(objective)
     _check_options(episodes, seed, beta, gamma, q_init, penalty)
     check_seed(seed)
@@ -128,6 +131,14 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     settings = {"reward": reward, "reward_units": reward_units, "episodes": episodes, "seed": seed, "beta": beta,
                 "gamma": gamma, "epsilon0": 1.0 / episodes, "q_init": q_init, "penalty": penalty,
                 "slot_in_state": slot_in_state, "memory_limit_gb": memory_limit, "startup_s": startup_s}
+    if is_lossy(instance):  # MODEL.md 11: outcomes drawn (qlearning/lossy.py); the lossless path below is untouched
+        from voiopt.solvers.qlearning import lossy
+
+        options = dict(progress=progress, episodes=episodes, seed=seed, beta=beta, gamma=gamma, q_init=q_init,
+                       penalty=penalty, time_limit=time_limit, memory_limit=memory_limit, slot_in_state=slot_in_state,
+                       reward_units=reward_units, settings=settings, samples=samples, ir_samples=ir_samples)
+        return lossy.solve_lossy(instance, objective, reward, method, options, lambda plain: _run(
+            plain, objective, reward, **{k: v for k, v in options.items() if k != "settings"}))
     with watch(time_limit, memory_limit) as stop:
         try:
             model = build(instance, reward, penalty, slot_in_state, reward_units, stop=stop)
@@ -198,17 +209,23 @@ class Options(options.Options):
     penalty: float = mdp_mod.IDLE_PENALTY
     slot_in_state: bool = False
     reward_units: str = "bit/s"
+    samples: int = DEFAULT_SAMPLES  # lossy links: coupled scenarios of a Monte Carlo value
+    ir_samples: int = 0  # lossy links: scenarios of the information-relaxation bound (0: none)
 
 def solve(instance: Instance, objective: str = DEFAULT, *, progress: bool = False,
           episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
           q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY, time_limit: float | None = None,
-          memory_limit: float = base.DEFAULT_MEMORY_GB, slot_in_state: bool = False, reward_units: str = "bit/s") -> Result:
+          memory_limit: float = base.DEFAULT_MEMORY_GB, slot_in_state: bool = False, reward_units: str = "bit/s",
+          samples: int = DEFAULT_SAMPLES, ir_samples: int = 0) -> Result:
     """The paper's "VoI-optimal" scheme: Algorithm 1 with reward min_i V_i - idle penalty.
 
     Options default to the paper's values: V in bit/s and a penalty of 100 (MODEL.md section 7);
     ``reward_units="bit/s/Hz"`` divides V by B, for comparison. ``memory_limit`` (GB) bounds
     the Q-table. ``slot_in_state=True`` (not the paper's) adds t to the state; with gamma=1 and
-    penalty=0 Q-learning then targets exactly T * mean-min-voi (in reward units)."""
+    penalty=0 Q-learning then targets exactly T * mean-min-voi (in reward units). On lossy
+    links (MODEL.md 11) it learns from sampled outcomes and returns its greedy policy, valued
+    exactly or by Monte Carlo over ``samples`` scenarios, bounded (``ir_samples``: the
+    information relaxation); see qlearning/lossy.py."""
     return _run(instance, objective, "voi", **_options(locals()))
 
 
@@ -216,7 +233,8 @@ def solve_aoi(instance: Instance, objective: str = AOI_DEFAULT, *, progress: boo
               episodes: int = EPISODES, seed: int = 0, beta: float = BETA, gamma: float = GAMMA,
               q_init: float = 0.0, penalty: float = mdp_mod.IDLE_PENALTY,
               time_limit: float | None = None, memory_limit: float = base.DEFAULT_MEMORY_GB,
-              slot_in_state: bool = False, reward_units: str = "bit/s") -> Result:
+              slot_in_state: bool = False, reward_units: str = "bit/s", samples: int = DEFAULT_SAMPLES,
+              ir_samples: int = 0) -> Result:
     """The paper's "AoI-optimal" scheme: Algorithm 1 with reward -max_i A_i - idle penalty.
 
     The AoI reward has no units to choose; ``reward_units`` is accepted (and recorded) so that

@@ -1,0 +1,172 @@
+"""Q-learning on lossy links (MODEL.md sections 7 and 11): Algorithm 1 learning from sampled
+outcomes (lossy_kernels.train_lossy), and its policy.
+
+Its policy is the greedy policy of its table: in an observed state, the first feasible action
+of largest Q-value. The table's state holds each sensor's distance as the point it uploaded
+from (or its initial distance); an observed distance is matched to the states it can stand
+for, the first held by the table in the order initial distance, then lattice points by index.
+A state the table never visited gets voiopt.core.policy's stated fallback (the legal action of
+largest expected next reward). Its value is exact where the states it reaches can be
+enumerated, else Monte Carlo over coupled scenarios with a 95 % CI; its bound is the lossless
+optimum's proven bound (dp on the instance without links), or with ``ir_samples`` the
+information relaxation capped by it.
+
+Fleets on lossy links are not learnt here: their Q-learning solves the lossless problem and
+its plan is valued exactly (voiopt.solvers.lossy_plans).
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+
+import numpy as np
+
+from voiopt.core.instance import Instance
+from voiopt.core.links import success_table, without_links
+from voiopt.core.policy import Policy
+from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
+from voiopt.mdp import robot as mdp_mod
+from voiopt.runtime.progress import progress_bar, text_column
+from voiopt.runtime.status import Status
+from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
+from voiopt.solvers.qlearning.lossy_kernels import q_row, train_lossy
+from voiopt.solvers.qlearning.rng import seed_state
+from voiopt.solvers.qlearning.table import QTable
+
+EXACT_STATES = 20_000  # states of a slot up to which the learnt policy's value is exact
+CHUNK_EPISODES = 2000
+
+
+class QPolicy(Policy):
+    """The greedy policy of a trained Q-table; decisions asked for are kept in ``table``."""
+
+    def __init__(self, instance: Instance, objective: str, method: str, model, qtable) -> None:
+        super().__init__(instance, objective, method, table={})
+        self.model, self.qtable = model, qtable
+        self.visited = 0  # decisions taken from the learnt table (the rest: the fallback)
+        self.unvisited = 0
+        lat = self.steps.lat
+        self.candidates = []  # per sensor: {distance rounded: [qidx, ...]}
+        for i in range(instance.n_sensors):
+            c: dict = {}
+            c.setdefault(round(instance.initial_distance(i), 9), []).append(0)
+            for p in np.flatnonzero(lat.in_range[i]).tolist():
+                c.setdefault(round(float(lat.distance[i, p]), 9), []).append(1 + p)
+            self.candidates.append(c)
+
+    def choose(self, t: int, state: tuple) -> tuple[int, int]:
+        key = self.key(t, state)
+        hit = self.table.get(key)
+        if hit is None:
+            hit = self.table[key] = self._greedy(t, state)
+        return hit
+
+    def _greedy(self, t: int, state: tuple) -> tuple[int, int]:
+        p, k, ages, qs = state
+        m = self.model
+        slot = t if m.slot_in_state else 0
+        moves = k if m.moves_in_state else 0
+        options = [self.candidates[i].get(round(q, 9), []) for i, q in enumerate(qs)]
+        for qidx in itertools.product(*options):
+            row = None if self.qtable is None else q_row(m, self.qtable, (p, ages, qidx, slot, moves))
+            if row is None:
+                continue
+            feasible = m.feasible((p, ages, qidx, slot, moves), t)
+            values = np.where(feasible, np.asarray(row), -np.inf)
+            a = int(np.argmax(values))
+            if not feasible[a]:
+                break
+            self.visited += 1
+            u, move = int(m.action_upload[p, a]), int(m.action_move[p, a])
+            return u, (0 if t == self.steps.T - 1 else move)
+        self.unvisited += 1
+        return self.fallback(t, state)
+
+
+def run(instance: Instance, objective: str, reward: str, method: str, *, progress: bool, episodes: int, seed: int,
+        beta: float, gamma: float, q_init: float, penalty: float, time_limit: float | None, memory_limit: float,
+        slot_in_state: bool, reward_units: str, settings: dict, samples: int = DEFAULT_SAMPLES,
+        ir_samples: int = 0):
+    """Train on sampled outcomes; return the greedy policy's Result (value evaluated, bound)."""
+    from voiopt.solvers.policy.relaxation import information_relaxation
+    from voiopt.solvers.policy.report import policy_result
+    from voiopt.solvers.policy.solver import check_averaged, lossless_optimum
+
+    check_averaged(objective, method)
+    settings = {**settings, "startup_s": settings.get("startup_s", 0.0) + warm_up()}
+    t0 = time.perf_counter()
+    with watch(time_limit, memory_limit) as stop:
+        done = 0
+        try:
+            model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units, stop=stop)
+        except Stopped:
+            model = None
+        if model is not None:
+            table = QTable(model, q_init, stop.memory_bytes)
+            succ = success_table(instance)
+            eps, eps0 = np.array([1.0]), 1.0 / episodes
+            rng = np.array([seed_state(seed)], dtype=np.uint64)
+            with progress_bar(progress, text_column("states {task.fields[states]}")) as bar:
+                task = bar.add_task(f"{method} (lossy)", total=episodes, states=0)
+                while done < episodes:
+                    ran, fits = train_lossy(model, table, min(CHUNK_EPISODES, episodes - done), eps, eps0, beta, gamma,
+                                            rng, succ)
+                    done += ran
+                    bar.update(task, completed=done, states=table.n_states)
+                    if not fits:
+                        stop.request(MEMORY_LIMIT)
+                    if done < episodes and stop.check():
+                        break
+            table.drop_next()
+        else:
+            table = None
+        stopped = stop.reason if done < episodes else None
+        solver = {**settings, "episodes_run": done, "table_states": 0 if table is None else table.n_states,
+                  "links": "outcomes drawn"}
+        if stopped:
+            solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes"
+    if model is None:
+        model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
+    policy = QPolicy(instance, objective, method, model, table)
+    evaluation = evaluate_policy(policy, objective, samples=samples, seed=seed, max_states=EXACT_STATES)
+    solver["decisions"] = {"from_table": policy.visited, "fallback": policy.unvisited}
+    base = lossless_optimum(instance, objective, None, memory_limit)
+    bound, kind, extra = base.bound, "lossless", {}
+    solver["lossless_bound"] = base.bound
+    if ir_samples:
+        ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound)
+        if ir is not None and not ir["capped"]:
+            bound, kind = ir["bound"], "information-relaxation"
+            extra = {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]}
+    return policy_result(instance, method, objective, policy, evaluation, status=stopped or Status.FEASIBLE, bound=bound,
+                         bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)
+
+
+def warm_up() -> float:
+    """Compile (or load) the lossy kernel once per process, on a tiny lossy MDP."""
+
+    def load():
+        from voiopt.core.instance import from_dict
+        from voiopt.networks.generate import generate
+
+        tiny = from_dict(generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up").to_dict()
+                         | {"links": {"model": "bernoulli", "success": 0.5}})
+        model = mdp_mod.build(tiny)
+        table = QTable(model, 0.0, 64 * 2**20)
+        train_lossy(model, table, 1, np.array([1.0]), 1.0, 0.75, 0.9, np.array([1], dtype=np.uint64),
+                    success_table(tiny))
+
+    from voiopt.solvers import base
+
+    return base.warm_up_once("qlearning-lossy", load)
+
+
+def solve_lossy(instance: Instance, objective: str, reward: str, method: str, options: dict, lossless_run):
+    """Q-learning on a lossy instance: one robot learns from sampled outcomes (``run``); a fleet
+    solves the lossless problem (``lossless_run(instance without links)``), its plan valued exactly."""
+    if instance.fleet:
+        from voiopt.solvers.lossy_plans import plan_result
+
+        return plan_result(instance, lossless_run(without_links(instance)))
+    return run(instance, objective, reward, method, **options)
