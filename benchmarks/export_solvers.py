@@ -3,24 +3,22 @@ solved by HiGHS and by SCIP at their default settings with a relative gap of 0, 
 read back by ``import-solution`` and its simulated value compared with the certificate.
 
     .venv/bin/python benchmarks/export_solvers.py [--time-limit 4] [--solvers highs scip]
-        [--only NAME ...] [--objectives min-voi mean-min-voi] [--out docs/results/export_solvers.md]
+        [--only NAME ...] [--objectives min-voi mean-min-voi] [--name export_solvers]
 
 Requirements: highspy (a voiopt dependency) and pyscipopt (``pip install 'voiopt[scip]'``).
 Each solve gets ``--time-limit`` seconds; a solve stopped by it is reported as ``time limit``
 with the value of the plan it had. An "optimal" solve must match the certificate to 1e-6
 relative (the tolerance of an ``optimal`` claim, MODEL.md section 6); one that does not is a
-misread (exit status 1). The table is printed and written to ``--out`` with the command,
-commit, date and machine in its header.
+misread (exit status 1). The table is printed and written to docs/results/NAME.md by
+benchmarks/report.py, with the command, commit, date and machine in its header.
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
 import math
 import os
-import platform
-import subprocess
+import shlex
 import sys
 import tempfile
 import time
@@ -31,7 +29,6 @@ from voiopt.solvers.milp.solution_file import import_solution
 from voiopt.voilib import library as voilib
 
 MATCH_RTOL = 1e-6  # an optimal claim's tolerance (MODEL.md section 6)
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def solve_highs(mps: Path, sol: Path, time_limit: float) -> tuple[str, float | None]:
@@ -111,10 +108,9 @@ def fmt(v: float | None) -> str:
     return "-" if v is None else f"{v:.10g}"
 
 
-def header(argv: list[str]) -> str:
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
-                           text=True).stdout.strip()
+def settings() -> str:
+    """What the results table's reader needs beside report.py's header: the load, the solvers'
+    versions and what the outcomes mean."""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     import highspy
     try:
@@ -122,19 +118,10 @@ def header(argv: list[str]) -> str:
         scip = f"pyscipopt {pyscipopt.__version__}"
     except ImportError:
         scip = "pyscipopt not installed"
-    return "\n".join([
-        "# Other solvers on the exported VoI-Lib MILPs",
-        "",
-        f"- command: `{' '.join(['python benchmarks/export_solvers.py', *argv])}`",
-        f"- commit: {commit}{' (with uncommitted changes)' if dirty else ''}",
-        f"- date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC",
-        f"- machine: {platform.machine()}, {os.cpu_count()} cores, load {load:.1f} at the start; "
-        f"Python {platform.python_version()}, highspy {highspy.Highs().version()}, {scip}",
-        "- settings: each solver's defaults, relative gap 0, one thread; `equal`: the plan read back by "
-        f"`import-solution` is worth the certified optimum to {MATCH_RTOL:g} relative; `MISREAD`: the solver said "
-        "optimal and it is not; `claimed`: the solver's own objective in bit/s (exp of a min-voi file's ln V)",
-        "",
-    ])
+    return (f"load {load:.1f} at the start; highspy {highspy.Highs().version()}, {scip}; each solver's defaults, "
+            f"relative gap 0, one thread. equal: the plan read back by import-solution is worth the certified "
+            f"optimum to {MATCH_RTOL:g} relative; MISREAD: the solver said optimal and it is not; claimed: the "
+            "solver's own objective in bit/s (exp of a min-voi file's ln V)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -145,11 +132,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--objectives", nargs="+", default=["min-voi", "mean-min-voi"],
                     choices=["min-voi", "mean-min-voi"])
     ap.add_argument("--only", nargs="+", default=None, help="VoI-Lib instance names")
-    ap.add_argument("--out", default=str(ROOT / "docs" / "results" / "export_solvers.md"))
+    ap.add_argument("--name", default="export_solvers", help="the results table, docs/results/NAME.md")
     args = ap.parse_args(argv)
     insts = voilib.instances()
     names = args.only or list(insts)
-    head = header(argv)
+    head = settings()
     rows = []
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
@@ -172,15 +159,15 @@ def main(argv: list[str] | None = None) -> int:
             count = {k: sum(r["outcome"].split(" (")[0] == k for r in mine) for k in ("equal", "MISREAD", "time limit")}
             summary.append(f"| {solver} | {objective} | {len(mine)} | {count['equal']} | {count['time limit']} | "
                            f"{count['MISREAD']} | {len(mine) - sum(count.values())} |")
-    text = "\n".join([head, "| solver | objective | solves | equal | time limit | MISREAD | other |",
+    text = "\n".join([head, "", "| solver | objective | solves | equal | time limit | MISREAD | other |",
                       "|---|---|---|---|---|---|---|", *summary, "",
                       f"Total wall time {time.perf_counter() - t0:.0f} s.", "", *lines, ""])
-    from voiopt.runtime.files import atomic_write
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import report
 
-    with atomic_write(args.out) as f:
-        f.write(text)
+    path = report.write(args.name, "python " + shlex.join(["benchmarks/export_solvers.py", *argv]), text)
     print("\n".join(summary))
-    print(f"written to {args.out}")
+    print(f"written to {path}" if path else "not written (VOIOPT_RESULTS_DIR=-)")
     return 1 if any(r["outcome"] == "MISREAD" for r in rows) else 0
 
 
