@@ -74,6 +74,17 @@ def cmd_bench_certify(args) -> int:
     return 0
 
 
+def cmd_bench_merge(args) -> int:
+    from voiopt.experiments import voilib_merge
+
+    path, changed = voilib_merge.merge(args.source, args.into)
+    if changed:
+        out.print(f"merged {len(changed)} certificates into {path}", markup=False)
+    else:
+        out.print(f"{path}: already holds these certificates; nothing written", markup=False)
+    return 0
+
+
 def cmd_import_solution(args) -> int:
     from voiopt.models.milp.solution_file import import_solution
 
@@ -106,12 +117,18 @@ def add_commands(sub, command, add_executor_options, count) -> None:
     s.add_argument("--work", required=True, metavar="DIR", help="where each run's result is kept, for resuming")
     s.add_argument("--time-limit", type=float, default=60.0, metavar="S", help="per run (default 60)")
     s.add_argument("--into", default=None, metavar="DIR",
-                   help="where certificates.json goes (default: the package's VoI-Lib folder)")
+                   help="where certificates.json goes (default: the --work folder; never the package's own: "
+                        "bench merge-certificates updates those)")
     s.add_argument("--only", default=None, metavar="NAME,...", help="certify these instances alone")
     s.add_argument("--threads", type=count, default=1, metavar="K",
                    help="per run: dp's chunks expanded at once and the MILP's HiGHS threads (default 1)")
     add_executor_options(s)
     s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s = command(bench, "merge-certificates", "a maintainer's step: merge certificates that certify wrote into the "
+                "shipped ones, refusing any weaker or disagreeing one", cmd_bench_merge)
+    s.add_argument("source", metavar="SOURCE", help="a certificates.json, or the folder bench certify --into wrote it to")
+    s.add_argument("--into", default=None, metavar="FILE",
+                   help="the certificates.json to update (default: the package's shipped one)")
 
     s = command(sub, "import-solution", "read a MILP solver's solution back into a plan and a result",
                 cmd_import_solution)

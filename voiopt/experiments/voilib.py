@@ -6,7 +6,8 @@ simulated value, a proven bound, the status ("optimal" when they meet, else "bou
 optimum lies between value and bound), the methods that found the plan and proved the bound,
 the voiopt version and the instance's sha256. dp and the MILP certify every entry
 independently; where both prove optimality their values must agree, or certification fails.
-``certify`` is the only writer of the certificates (docs/voilib.md).
+``certify`` writes certificates into a folder the user names; ``voilib_certificates.merge`` is the
+only writer of the shipped ones, and never weakens a certificate (docs/voilib.md).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from voiopt._files import (
     write_json_atomic,
 )
 from voiopt.errors import OptionError, PlanError, VoioptError, first_line
+from voiopt.experiments.voilib_certificates import make_provenance, today
 from voiopt.generate import case_study, generate_set, write_set
 from voiopt.instance import Instance, show
 from voiopt.objectives import OBJECTIVES, best, better, check_objective, gap, tightest
@@ -344,13 +346,14 @@ def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dic
     else:
         bound, bound_method = None, None
     status = "optimal" if proved else "bounded"  # a gap within tolerance is not a proof: bound == value
-    return {
+    cert = {
         "objective": objective, "status": status, "value": value, "bound": bound, "gap": gap(value, bound),
         "plan": top.plan.to_dict(), "method": top.method, "bound_method": bound_method,
         "checks": {r.method: {"status": r.status, "value": r.value, "bound": r.bound, "runtime_s": r.runtime_s}
                    for r in results},
         "voiopt_version": _version(), "instance_sha256": instance_hash(inst),
     }
+    return {**cert, "provenance": make_provenance(cert, today())}
 
 
 def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_limit: float | None = None,
@@ -359,8 +362,9 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     """Run dp and the MILP on every instance (or those named in ``only``) and objective
     (results kept in ``work_dir``, so an interrupted run resumes, on a process pool or Dask;
     a ``work_dir`` made with another time limit, memory limit or threads is refused)
-    and write certificates.json into ``into`` (default: the package's VoI-Lib folder, in a
-    source checkout). With ``only``, the other instances' entries of an existing
+    and write certificates.json into ``into`` (default: ``work_dir``; never the package's own
+    VoI-Lib folder unless named: ``voilib_certificates.merge`` is the step that updates the shipped
+    certificates, refusing to weaken them). With ``only``, the other instances' entries of an existing
     certificates.json there are kept (those whose instance is unchanged). ``threads`` is each
     run's: dp's chunks expanded at once and the MILP's HiGHS threads (``workers`` times
     ``threads`` cores in all)."""
@@ -385,7 +389,7 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
             raise OptionError(f"--only: {unknown[0]!r} is no VoI-Lib {VERSION} instance")
         lib = {n: every[n] for n in only}
     work = check_output_dir(work_dir, "--work", parents=True)
-    target = check_output_dir(into, "--into", parents=True) if into is not None else Path(str(DATA))
+    target = check_output_dir(into if into is not None else work_dir, "--into", parents=True)
     if target.is_dir():  # certificates.json can be written there (the package's own folder may be read-only)
         check_output_file(target / "certificates.json", "--into")
     work.mkdir(parents=True, exist_ok=True)
