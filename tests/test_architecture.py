@@ -27,7 +27,7 @@ LAYERS = [
     ("voiopt.models",),
     ("voiopt.solvers",),
     ("voiopt.env", "voiopt.pz_env", "voiopt.plots", "voiopt.experiments"),
-    ("voiopt.cli", "voiopt.cli_bench", "voiopt.__main__", "voiopt"),
+    ("voiopt.cli", "voiopt.cli_bench", "voiopt.cli_validate", "voiopt.cli_output", "voiopt.__main__", "voiopt"),
 ]
 
 

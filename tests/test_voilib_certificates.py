@@ -119,3 +119,75 @@ def test_every_shipped_certificate_has_provenance_from_what_is_known():
             assert p["proved_by"]["voiopt_version"] == cert["voiopt_version"]
             for m in p["confirmed_by"]:
                 assert m != cert["bound_method"] and cert["checks"][m]["status"] == "optimal", (name, objective)
+
+
+# ------------------------------------------------------------ VoI-Lib as benchmark users expect
+
+
+def test_export_writes_a_readme_and_a_solution_per_instance_and_objective_that_score_to_a_zero_gap(tmp_path, capsys):
+    code, _, _ = run(capsys, "bench", "export", "--out", str(tmp_path / "lib"))
+    assert code == 0
+    readme = (tmp_path / "lib" / "README.md").read_text()
+    certs = voilib.certificates()["instances"]
+    for row in voilib.table_rows():
+        assert f"| {row['name']} | {row['N']} | {row['T']} |" in readme and row["mean-min-voi"] in readme
+    assert "bench score" in readme and "exit status" in readme and "sha256" in readme
+    solutions = sorted((tmp_path / "lib" / "solutions").iterdir())
+    assert len(solutions) == sum(len(e["certificates"]) for e in certs.values())
+    exported = json.loads((tmp_path / "lib" / "certificates.json").read_text())
+    assert all("provenance" in c for e in exported["instances"].values() for c in e["certificates"].values())
+    picked = [p for p in solutions if p.name.startswith(("walls-n4-t30-002__", "case-study__"))]
+    code, out, _ = run(capsys, "bench", "score", "--json", *map(str, picked))
+    rows = json.loads(out)
+    assert code == 0 and len(rows) == 8
+    for r in rows:
+        assert r["gap_to_bound"] == 0.0 and r["gap_to_best"] == 0.0, r
+        assert r["value"] == certs[r["instance"]]["certificates"][r["objective"]]["value"]
+
+
+def test_a_bare_plan_is_scored_with_instance_and_objective_as_json_or_csv(tmp_path, capsys):
+    cert = voilib.certificates()["instances"]["paper-n4-t20-001"]["certificates"]["mean-max-aoi"]
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps(cert["plan"]))
+    code, out, _ = run(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001", "--objective",
+                       "mean-max-aoi", "--json")
+    (row,) = json.loads(out)
+    assert code == 0 and row["value"] == cert["value"] and row["gap_to_bound"] == 0.0 and row["status"] is None
+    idle = {"positions": [cert["plan"]["positions"][0]] * len(cert["plan"]["positions"]),
+            "schedule": [None] * len(cert["plan"]["schedule"])}
+    plan.write_text(json.dumps(idle))
+    code, out, _ = run(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001", "--objective",
+                       "mean-max-aoi", "--csv")
+    header, line = out.strip().splitlines()
+    row = dict(zip(header.split(","), line.split(","), strict=True))
+    assert code == 0 and float(row["gap_to_bound"]) > 0 and float(row["value"]) > cert["value"]
+    code, _, err = run(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001")
+    assert code == 2 and "give both" in one_line_error(err)
+
+
+def test_bench_score_shows_a_results_own_status(tmp_path, capsys):
+    cert = voilib.certificates()["instances"]["case-study"]["certificates"]["max-aoi"]
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps({"instance": "case-study", "objective": "max-aoi", "plan": cert["plan"],
+                                "status": "interrupted", "method": "milp"}))
+    code, out, _ = run(capsys, "bench", "score", str(path))
+    assert code == 0 and "interrupted" in out
+
+
+@pytest.mark.parametrize("doc, code", [
+    ("good", 0), ("illegal", 3), ("forged", 4), ("not json", 5), (None, 5), ("unknown", 2)])
+def test_the_checker_has_an_exit_status_for_each_verdict(tmp_path, capsys, doc, code):
+    cert = voilib.certificates()["instances"]["case-study"]["certificates"]["min-voi"]
+    good = {"instance": "case-study", "objective": "min-voi", "plan": cert["plan"], "value": cert["value"]}
+    docs = {"good": good, "forged": {**good, "value": cert["value"] * 1.01},
+            "illegal": {**good, "plan": {**cert["plan"], "schedule": [0] * len(cert["plan"]["schedule"])}},
+            "unknown": {**good, "instance": "no-such"}}
+    path = tmp_path / "sub.json"
+    if doc is not None:
+        path.write_text(json.dumps(docs[doc]) if doc in docs else '{"instance": "case-')
+    got, out, err = run(capsys, "bench", "check", str(path))
+    assert got == code, (out, err)
+    if code == 0:
+        assert out.startswith("valid: case-study min-voi") and err == ""
+    else:
+        assert one_line_error(err).startswith(f"voiopt: error: {path}")

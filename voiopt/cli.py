@@ -7,6 +7,7 @@ import gc
 import json
 import signal
 import sys
+import warnings
 from pathlib import Path
 
 from rich.console import Console
@@ -17,6 +18,8 @@ from voiopt import _numba_start, fields, lattice
 from voiopt import instance as instance_mod
 from voiopt._files import check_output_dir, check_output_file, dumps_json, read_json
 from voiopt.cli_bench import add_commands as add_bench_commands
+from voiopt.cli_output import one_line_warning, pipe_closed
+from voiopt.cli_validate import cmd_validate
 from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.generate import MAX_COUNT, PRESETS, generate_set, write_set
 from voiopt.generate import generate as generate_one
@@ -25,6 +28,7 @@ from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
 from voiopt.plan import plan_of
 from voiopt.result import disagreement
+from voiopt.solvers import UnknownOption
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 from voiopt.stop import last_signal, sigterm_raises
 
@@ -81,29 +85,6 @@ def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
 
 
 # ------------------------------------------------------------------------------- commands
-
-
-def cmd_validate(args) -> int:
-    bad = 0
-    for path in args.instances:
-        try:
-            inst = instance_mod.load(path)
-        except VoioptError as e:
-            lines = [f"{path}: {line}" for line in getattr(e, "all_errors", [])] or [str(e)]
-            for line in lines:
-                err.print(line, markup=False)
-            bad += 1
-            continue
-        never = lattice.unservable_sensors(inst)
-        note = f" ({inst.n_robots} robots)" if inst.fleet else ""
-        if never:
-            note += f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
-        stranded = lattice.stranded_sensors(inst) if lattice.cheap(inst) else []
-        if stranded:
-            note += (f" (warning: sensors {stranded} are never uploaded by any legal plan: no point in their range "
-                     "can be reached and left for the end within the horizon and max_moves; their packets only age)")
-        out.print(f"{path}: ok{note}" if len(args.instances) > 1 else f"ok{note}", markup=False)
-    return 2 if bad else 0
 
 
 def _note_stranded(insts) -> None:
@@ -187,9 +168,13 @@ def cmd_generate(args) -> int:
     return 0
 
 
+SOLVE_FLAGS = ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units", "warm_start",
+               "verbose")  # solve's flags, by the keyword each gives
+
+
 def _solve_options(args, inst) -> dict:
     opts = {}
-    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units"):
+    for key in SOLVE_FLAGS[:7]:
         v = getattr(args, key, None)
         if v is not None:
             opts[key] = v
@@ -209,10 +194,17 @@ def _solve_options(args, inst) -> dict:
 
 
 def cmd_solve(args) -> int:
+    if args.quiet and args.verbose:
+        raise OptionError("--quiet, --verbose: give one or neither (--quiet prints nothing but errors)")
     if args.output is not None:  # before the work, not after it
         check_output_file(args.output, inputs=[("INSTANCE", args.instance), ("--warm-start", args.warm_start)])
     inst = instance_mod.load(args.instance)
-    result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst))
+    try:
+        result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst))
+    except UnknownOption as e:  # the command line's flags, not Python's keywords
+        flag = {k: f"--{k.replace('_', '-')}" for k in (*SOLVE_FLAGS, e.key)}
+        raise OptionError(f"{flag[e.key]}: not an option of method {e.method!r} (on the command line it takes "
+                          f"{', '.join(flag[k] for k in e.takes if k in flag) or 'none of its options'})") from None
     if args.output:
         result.save(args.output)
     if args.json:
@@ -456,6 +448,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = None
+    warnings.showwarning = one_line_warning
     try:
         args = build_parser().parse_args(argv)
         with sigterm_raises():  # a SIGTERM ends any command with a line, as a Ctrl-C does
@@ -463,6 +456,8 @@ def main(argv: list[str] | None = None) -> int:
     except VoioptError as e:
         err.print(f"voiopt: error: {e}", markup=False)
         return 2
+    except BrokenPipeError:  # stdout's reader has gone (voiopt generate | head -1): nothing more to say
+        return pipe_closed()
     except (WorkerDied, OSError) as e:  # a worker killed; a disk full or gone after the checks
         err.print(f"voiopt: error: {e}", markup=False)
         return 1
@@ -490,6 +485,9 @@ def run() -> None:
         gc.disable()
     try:
         code = main()
+        sys.stdout.flush()  # a closed pipe shows here, not in the flush at exit
+    except BrokenPipeError:
+        code = pipe_closed()
     finally:
         gc.freeze()
     sys.exit(code)

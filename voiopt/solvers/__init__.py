@@ -60,6 +60,15 @@ def default_method(instance: Instance) -> str:
     return "dp" if instance.n_robots <= DP_MAX_ROBOTS else "milp"
 
 
+class UnknownOption(OptionError):
+    """A keyword a method does not take; it lists the keywords it does (the command line
+    rephrases it with its own flags)."""
+
+    def __init__(self, key: str, method: str, takes: list[str]) -> None:
+        super().__init__(f"{key}: not an option of method {method!r} (it takes {', '.join(takes)})")
+        self.key, self.method, self.takes = key, method, takes
+
+
 def solve(instance: Instance, method: str | None = None, objective: str = DEFAULT, **options: Any) -> Result:
     """Solve ``instance`` (an Instance, or an instance file's path) with ``method`` (by default
     ``default_method``: dp, or milp for three robots or more) for ``objective``; every value
@@ -74,6 +83,5 @@ def solve(instance: Instance, method: str | None = None, objective: str = DEFAUL
         for key in options:
             if key not in params:
                 takes = [k for k, p in params.items() if p.kind is p.KEYWORD_ONLY and k != "progress"]
-                raise OptionError(f"--{key.replace('_', '-')} ({key}= in Python): not an option of method {method!r} "
-                                  f"(it takes {', '.join(takes)})")
+                raise UnknownOption(key, method, takes)
     return fn(instance, objective, **options)

@@ -74,9 +74,9 @@ def _check_options(episodes, seed, beta, gamma, q_init, penalty):
     for name, v in (("beta", beta), ("gamma", gamma)):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 1:
             bad(name, v, "must be in (0, 1]")
-    for name, v in (("q_init", q_init), ("penalty", penalty)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            bad(name, v, "must be a finite number")
+    if isinstance(q_init, bool) or not isinstance(q_init, (int, float)) or not math.isfinite(q_init):
+        bad("q_init", q_init, "must be a finite number")
+    mdp_mod.check_penalty(penalty)
 
 
 def mdp_bytes(instance: Instance) -> float:
