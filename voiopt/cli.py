@@ -27,7 +27,7 @@ from voiopt.instance import show
 from voiopt.models.mdp import REWARD_UNITS
 from voiopt.objectives import DEFAULT, OBJECTIVES
 from voiopt.plan import plan_of
-from voiopt.result import disagreement
+from voiopt.result import STOPPED, disagreement
 from voiopt.solvers import UnknownOption
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 from voiopt.stop import last_signal, sigterm_raises
@@ -221,7 +221,7 @@ def cmd_solve(args) -> int:
         err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is {kept}",
                   markup=False)
         return 128 + (last_signal() or signal.SIGINT)
-    return 0 if result.status != "error" else 1
+    return 1 if result.status == "error" or result.plan is None and result.status in STOPPED else 0
 
 
 def cmd_export(args) -> int:

@@ -23,7 +23,7 @@ from voiopt.plan import Plan
 from voiopt.simulate import simulate
 
 STATUSES = ("optimal", "feasible", "time_limit", "memory_limit", "interrupted", "infeasible", "error")
-STOPPED = ("time_limit", "memory_limit", "interrupted")  # stopped early, with a plan
+STOPPED = ("time_limit", "memory_limit", "interrupted")  # stopped early: with a plan, or none yet (a fleet's milp)
 OPTIMAL_RTOL = 1e-6
 
 
@@ -60,7 +60,7 @@ class Result:
             raise ValueError(f"status: unknown status {status!r}")
         solver = dict(solver or {})
         if plan is None:
-            if status in ("optimal", "feasible", *STOPPED):
+            if status in ("optimal", "feasible"):
                 raise ValueError(f"status {status!r} needs a plan")
             return cls(instance.name, method, objective, status, None, _clean(bound), None, runtime_s, None, None, solver)
         metrics = simulate(instance, plan).metrics

@@ -12,7 +12,7 @@ from voiopt.errors import PlanError
 from voiopt.models import milp as model_mod
 from voiopt.plan import Plan
 from voiopt.simulate import check_plan
-from voiopt.stop import Stopped
+from voiopt.stop import TIME_LIMIT, Stopped
 
 # the repair of a fleet's conflicting greedy plans is a warm start, not the solve: at most this
 # share of the time left (at least 1 s; REPAIR_S without a limit), to this gap in agreement
@@ -27,7 +27,7 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
     section 10's rules (a sensor serving two robots in one slot stays with the first); else
     their repair: the plan of the path model (no cover rows) that keeps most of their
     positions, moves and uploads. None once there is a plan, "infeasible" when
-    HiGHS proves there is none, "error" when stopped before either."""
+    HiGHS proves there is none, else the limit that stopped it ("time_limit"; "error" if none did)."""
     inst = run.instance
     if warm_start is not None:
         run.incumbent.offer(*check_plan(inst, warm_start), source="warm start")
@@ -88,9 +88,12 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
         run.details["note"] = ("no legal joint plan: the robots cannot all keep their ends and budgets without sharing "
                                "a point or swapping points (MODEL.md section 10); HiGHS proved the path model infeasible")
         return "infeasible"
-    return _no_plan_yet(run, f"HiGHS: {h.modelStatusToString(ms)}")
+    limited = ms in (highspy.HighsModelStatus.kTimeLimit, highspy.HighsModelStatus.kInterrupt)
+    return _no_plan_yet(run, f"HiGHS: {h.modelStatusToString(ms)}", TIME_LIMIT if limited else "error")
 
 
-def _no_plan_yet(run, why: str) -> str:
+def _no_plan_yet(run, why: str, otherwise: str = "error") -> str:
+    """No plan yet: the status says which limit stopped the work (``time_limit`` also when
+    HiGHS's own clock, set to the time left, stopped it first), else ``otherwise``."""
     run.details["note"] = f"stopped before any legal joint plan was found ({why})"
-    return "error"
+    return run.stop.reason or otherwise

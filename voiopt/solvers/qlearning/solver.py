@@ -150,7 +150,8 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         columns = (text_column("eps {task.fields[eps]:.3f}"), text_column("greedy {task.fields[greedy]}"),
                    text_column("states {task.fields[states]}"))
         with progress_bar(progress, *columns) as bar:
-            task = bar.add_task(method, total=episodes, eps=1.0, greedy="-", states=0)
+            label = method if reward == "aoi" or reward_units == "bit/s" else f"{method} {reward_units}"  # two readings apart
+            task = bar.add_task(label, total=episodes, eps=1.0, greedy="-", states=0)
             while done < episodes:
                 n = min(chunk, episodes - done)
                 c0 = time.perf_counter()
