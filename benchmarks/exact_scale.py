@@ -46,8 +46,8 @@ import time
 import voiopt
 from voiopt.errors import OptionError
 from voiopt.objectives import OBJECTIVES
-from voiopt.solvers import dp
 from voiopt.solvers.base import check_threads
+from voiopt.solvers.dp import solver as dp
 
 SETTINGS = {
     "paper": dict(n_sensors=4, horizon=30, size=5.0, networks=40, time_limit=None),

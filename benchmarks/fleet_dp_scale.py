@@ -27,8 +27,8 @@ import time
 from exact_scale import _print_row, parser
 
 import voiopt
-from voiopt.instance import from_dict
-from voiopt.solvers import fleet_dp
+from voiopt.core.instance import from_dict
+from voiopt.solvers.dp import fleet as fleet_dp
 
 SETTINGS = {
     "f3": dict(n_sensors=3, horizon=10, size=2.0, networks=5, time_limit=60.0),

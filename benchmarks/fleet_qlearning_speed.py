@@ -15,7 +15,7 @@ import argparse
 import os
 
 import voiopt
-from voiopt.instance import from_dict
+from voiopt.core.instance import from_dict
 
 
 def fleet(robots: list[dict]) -> voiopt.Instance:

@@ -20,7 +20,7 @@ import sys
 import time
 
 import voiopt
-from voiopt.instance import from_dict
+from voiopt.core.instance import from_dict
 from voiopt.objectives import OBJECTIVES
 
 

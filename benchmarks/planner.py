@@ -16,7 +16,8 @@ import statistics
 
 import voiopt
 from voiopt.objectives import gap
-from voiopt.solvers import beam, dp
+from voiopt.solvers.dp import beam
+from voiopt.solvers.dp import solver as dp
 
 SETTINGS = {"paper": (4, 30), "n6": (6, 30), "n8": (8, 30)}
 

@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 import voiopt
-from voiopt.models import mdp
+from voiopt.mdp import robot as mdp
 from voiopt.solvers import qlearning as ql
 
 

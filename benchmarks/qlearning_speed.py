@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import numpy as np  # noqa: E402
 
 import voiopt  # noqa: E402
-from voiopt.models import mdp  # noqa: E402
+from voiopt.mdp import robot as mdp  # noqa: E402
 from voiopt.solvers import qlearning as ql  # noqa: E402
 from voiopt.solvers.qlearning.reference import reference_qlearning  # noqa: E402
 

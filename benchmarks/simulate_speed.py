@@ -1,6 +1,6 @@
 """The simulator at long horizons against its slot-by-slot form, measured in the same run.
 
-``voiopt.simulate.simulate_indices`` computes the ages and distances of every slot at once and,
+``voiopt.core.simulate.simulate_indices`` computes the ages and distances of every slot at once and,
 from 2048 slots on, values each sensor's distinct (age, distance) pairs once. The reference is
 the dynamics as MODEL.md section 3 states them: ``advance`` slot by slot, then
 ``physics.voi`` on every entry. Both value shortest-path's plan; the bits must agree. Also
@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 import voiopt
-from voiopt.simulate import check_plan, simulate_indices, slot_by_slot
+from voiopt.core.simulate import check_plan, simulate_indices, slot_by_slot
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -23,9 +23,9 @@ import gymnasium as gym
 import numpy as np
 
 import voiopt.env as voienv
-from voiopt.experiments import voilib
 from voiopt.objectives import gap
-from voiopt.solvers import dp
+from voiopt.solvers.dp import solver as dp
+from voiopt.voilib import library as voilib
 
 
 class PickInstance(gym.Wrapper):

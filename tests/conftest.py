@@ -69,7 +69,7 @@ def field_instances(count: int = 24, seed: int = 777) -> list[voiopt.Instance]:
             d["max_moves"] = rng.randint(0, base.horizon - 1)
         d["name"] = f"field-{k:02d}"
         try:
-            out.append(voiopt.instance.from_dict(d))
+            out.append(voiopt.core.instance.from_dict(d))
         except voiopt.errors.InstanceError:
             continue
     return out
@@ -108,7 +108,7 @@ def fleet_instances(count: int = 12, seed: int = 4242) -> list[voiopt.Instance]:
                                        or [a])]
         d["robots"] = robots
         try:
-            inst = voiopt.instance.from_dict(d)
+            inst = voiopt.core.instance.from_dict(d)
         except voiopt.errors.InstanceError:
             continue
         if 0 < oracle.count_legal_plans(d) <= 10_000:  # none: ends that only a swap could reach
@@ -125,14 +125,14 @@ SWAP_ONLY = {"name": "swap-only", "area": {"width": 2, "height": 1}, "horizon": 
 
 def undecided(d: dict) -> voiopt.Instance:
     """The instance of ``d`` as the loader admits a fleet too large for its check that some
-    joint plan exists (voiopt.joint.possible answers None): the solvers must then prove that
+    joint plan exists (voiopt.grid.joint.possible answers None): the solvers must then prove that
     none exists themselves, and say ``infeasible``."""
-    from voiopt import joint
+    from voiopt.grid import joint
 
     possible = joint.possible
     joint.possible = lambda *args: None
     try:
-        return voiopt.instance.from_dict(d)
+        return voiopt.core.instance.from_dict(d)
     finally:
         joint.possible = possible
 
@@ -189,7 +189,7 @@ def stop_at_check(monkeypatch, n: int) -> None:
     """The stop rule fires from its n-th check on (a time limit reached: every Stop alive, as
     a solver's and the baseline it runs inside share one clock), wherever the clock is:
     mid-walk, mid-build, deterministically."""
-    from voiopt import stop as stop_mod
+    from voiopt.runtime import stop as stop_mod
 
     calls = {"n": 0}
     check = stop_mod.Stop.check

@@ -20,22 +20,17 @@ MODULES = {
     ".".join(p.relative_to(PACKAGE.parent).with_suffix("").parts).removesuffix(".__init__"): p
     for p in PACKAGE.rglob("*.py")
 }
-# the layers, bottom up; a module may import its own layer and those below it
-LAYERS = [
-    ("voiopt.errors", "voiopt._files", "voiopt._grid", "voiopt._checker", "voiopt._places", "voiopt._numba_start", "voiopt._jit", "voiopt._libm", "voiopt._prefault", "voiopt.joint", "voiopt.objectives", "voiopt.instance", "voiopt.fields", "voiopt.physics", "voiopt.lattice",
-     "voiopt.plan", "voiopt.simulate", "voiopt.result", "voiopt.generate", "voiopt.stop", "voiopt.progress"),
-    ("voiopt.models",),
-    ("voiopt.solvers",),
-    ("voiopt.env", "voiopt.pz_env", "voiopt.plots", "voiopt.experiments"),
-    ("voiopt.cli", "voiopt.cli_bench", "voiopt.cli_validate", "voiopt.cli_output", "voiopt.__main__", "voiopt"),
-]
+ARCHITECTURE = PACKAGE.parent / "docs" / "architecture.md"
 
 
-def _layer(module: str) -> int:
-    for k, group in enumerate(LAYERS):
-        if any(module == g or (g != "voiopt" and module.startswith(g + ".")) for g in group):
-            return k
-    raise AssertionError(f"{module} is in no layer of tests/test_architecture.py")
+def _listed() -> list[str]:
+    """The modules of docs/architecture.md's layer list, top down."""
+    text = ARCHITECTURE.read_text()
+    block = text[text.index("<!-- layers -->"):text.index("<!-- /layers -->")]
+    return [line.split()[0] for line in block.splitlines() if line.startswith("voiopt")]
+
+
+LISTED = _listed()
 
 
 def _imports(module: str, path: Path) -> set[str]:
@@ -89,9 +84,41 @@ def test_no_import_circle():
     assert cycles == []
 
 
-def test_dependencies_point_down_the_layers():
-    upward = [(m, d) for m, deps in GRAPH.items() for d in deps if _layer(d) > _layer(m)]
+def test_every_module_is_listed_once_in_the_architecture_page():
+    assert sorted(LISTED) == sorted(MODULES), (set(MODULES) - set(LISTED), set(LISTED) - set(MODULES))
+    assert len(LISTED) == len(set(LISTED))
+
+
+def test_every_import_points_down_the_list():
+    rank = {m: k for k, m in enumerate(LISTED)}
+    upward = sorted((m, d) for m, deps in GRAPH.items() for d in deps if m in rank and d in rank and rank[d] <= rank[m])
     assert upward == []
+
+
+def test_the_root_holds_only_the_public_face():
+    root = sorted(p.stem for p in PACKAGE.glob("*.py"))
+    assert root == ["__init__", "__main__", "env", "errors", "objectives", "pz_env"]
+
+
+def test_no_private_module_and_no_private_name_crosses_a_module():
+    private_modules = [m for m, p in MODULES.items() if p.name.startswith("_") and p.name not in ("__init__.py", "__main__.py")]
+    assert private_modules == []
+    crossing = []
+    for module, path in MODULES.items():
+        tree = ast.parse(path.read_text())
+        aliases = set()  # names bound to voiopt modules in this module
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("voiopt"):
+                for a in node.names:
+                    if a.name.startswith("_") and not a.name.startswith("__"):
+                        crossing.append((module, f"{node.module}.{a.name}"))
+                    if f"{node.module}.{a.name}" in MODULES:
+                        aliases.add(a.asname or a.name)
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in aliases
+                    and node.attr.startswith("_") and not node.attr.startswith("__")):
+                crossing.append((module, f"{node.value.id}.{node.attr}"))
+    assert crossing == [], crossing
 
 
 @pytest.mark.parametrize("module", sorted(MODULES))
@@ -108,18 +135,17 @@ def test_objective_names_are_written_out_in_at_most_two_modules():
 
 def test_import_voiopt_is_light_and_its_names_are_the_documented_ones():
     """``import voiopt`` imports no numpy (the command catches a Ctrl-C from its first moments,
-    voiopt.__main__); every name of ``__all__`` is there when used, and ``voiopt.simulate`` and
-    ``voiopt.generate`` stay the functions once the modules of the same names are imported; a
-    module of the package is there when used (``voiopt.physics``), as the eager imports made it."""
+    voiopt.__main__); every name of ``__all__`` is there when used; ``voiopt.simulate`` and
+    ``voiopt.generate`` are the functions; a sub-package is there when used (``voiopt.core``)."""
     code = (
         "import sys, voiopt; light = 'numpy' not in sys.modules\n"
-        "from voiopt.simulate import Trajectory\nimport voiopt.generate\n"
+        "from voiopt.core.simulate import Trajectory\n"
         "names = {}\nexec('from voiopt import *', names)\n"
         "print(light, callable(voiopt.simulate), callable(voiopt.generate), sorted(set(voiopt.__all__) - set(names)),"
-        " voiopt.simulate.__module__, voiopt.Trajectory is Trajectory, voiopt.physics.__name__)"
+        " voiopt.simulate.__module__, voiopt.Trajectory is Trajectory, voiopt.core.__name__)"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert proc.stdout.split() == ["True", "True", "True", "[]", "voiopt.simulate", "True", "voiopt.physics"], proc.stderr
+    assert proc.stdout.split() == ["True", "True", "True", "[]", "voiopt.core.simulate", "True", "voiopt.core"], proc.stderr
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         voiopt.nope  # noqa: B018
     assert not hasattr(voiopt, "physics.voi") and not hasattr(voiopt, "__wrapped__")

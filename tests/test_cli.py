@@ -13,8 +13,8 @@ import pytest
 from conftest import ROOT
 
 import voiopt
-from voiopt.cli import main
-from voiopt.generate import case_study_plan
+from voiopt.cli.main import main
+from voiopt.networks.generate import case_study_plan
 
 CASE_STUDY_PLAN = case_study_plan().to_dict()
 
@@ -101,7 +101,7 @@ def test_generate_set_is_deterministic(capsys, tmp_path):
     assert len(a) == 4 and [p.read_text() for p in a] == [p.read_text() for p in b]
     assert voiopt.load(a[0]).n_sensors == 3
     code, out, _ = run(capsys, "generate", "--sensors", "2", "--rho", "0.2", "0.3", "--power", "0.01")
-    inst = voiopt.instance.from_dict(json.loads(out))
+    inst = voiopt.core.instance.from_dict(json.loads(out))
     assert all(0.2 <= s.rho <= 0.3 and s.power_w == 0.01 for s in inst.sensors)
 
 
@@ -159,8 +159,8 @@ def test_demo_prints_the_case_study_metrics(capsys):
 def test_the_demo_merges_a_method_s_seeds_only_where_they_agree():
     """As the README shows it: "aoi-qlearning (seed 0..2)" where every seed gave the same plan's
     metrics, a row per seed where they differ."""
+    from voiopt.core.result import Result
     from voiopt.experiments.demo import _merged
-    from voiopt.result import Result
 
     def res(v, t=1.0):
         return Result("case-study", "qlearning", "mean-min-voi", "feasible", v, None, None, t, None,
@@ -292,7 +292,7 @@ def test_long_names_and_large_seeds_are_kept(capsys, tmp_path):
 
 
 def test_nested_output_folders_are_made_where_a_command_makes_them(tmp_path):
-    from voiopt._files import check_output_dir
+    from voiopt.runtime.files import check_output_dir
 
     assert check_output_dir(tmp_path / "a" / "b", "--work", parents=True) == tmp_path / "a" / "b"
     (tmp_path / "f").write_text("x")
@@ -436,12 +436,12 @@ def test_a_command_stopped_as_a_whole_says_whether_it_kept_results(capsys, monke
     """A stop that ends the whole command (a second Ctrl-C, or one before a solve's stop rule is
     in place) ends it in one line: a sweep keeps the runs it finished, a solve keeps nothing."""
     from voiopt.experiments import gaps
-    from voiopt.stop import Interrupted
+    from voiopt.runtime.stop import Interrupted
 
     def stopped(*args, **kw):
         raise Interrupted(2)
 
-    monkeypatch.setattr("voiopt.cli.instance_mod.load", stopped)
+    monkeypatch.setattr("voiopt.cli.main.instance_mod.load", stopped)
     code, out, err = run(capsys, "solve", CASE, "-o", str(tmp_path / "r.json"))
     assert (code, out) == (130, "")
     assert one_line_error(err) == "voiopt: interrupted (SIGINT); the command did not finish"

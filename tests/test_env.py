@@ -14,9 +14,9 @@ from gymnasium.utils.env_checker import check_env
 
 import voiopt
 import voiopt.env as voienv
-from voiopt import lattice
+from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
-from voiopt.simulate import simulate
+from voiopt.grid import lattice
 
 DOCK = ROOT / "instances" / "dock.json"
 
@@ -175,7 +175,7 @@ def test_an_action_is_an_integer_not_anything_int_accepts(case_study):
 def test_the_normalised_reward_on_an_open_certificate_is_refused_not_solved_for_ever(monkeypatch):
     import copy
 
-    from voiopt.experiments import voilib
+    from voiopt.voilib import library as voilib
 
     inst = voilib.instances()["factory-n12-t100-000"]
     shipped = copy.deepcopy(voilib.certificates())  # every certificate of VoI-Lib 1.2 is optimal; 1.1 had this one open
@@ -203,7 +203,7 @@ def test_the_api_takes_a_path_and_refuses_what_is_no_instance_in_one_line(case_s
     path = str(ROOT / "instances" / "case-study.json")
     loads = []
     with pytest.MonkeyPatch.context() as mp:  # the file is read once (until 2026-12-03, twice)
-        mp.setattr(voiopt.instance, "load", lambda p, _load=voiopt.instance.load: loads.append(p) or _load(p))
+        mp.setattr(voiopt.core.instance, "load", lambda p, _load=voiopt.core.instance.load: loads.append(p) or _load(p))
         env = gymnasium.make(voienv.ENV_ID, instance=path)
     assert env.unwrapped.instance == case_study and loads == [path]
     with pytest.raises(OptionError, match=r"^instance: must be an Instance or the path of an instance file, got 5$"):

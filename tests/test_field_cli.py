@@ -12,8 +12,9 @@ from oracles import model_oracle as oracle
 from test_cli import one_line_error, run
 
 import voiopt
-from voiopt import fields, lattice
 from voiopt.errors import OptionError
+from voiopt.grid import lattice
+from voiopt.networks import fields
 
 DOCK = str(ROOT / "instances" / "dock.json")
 FACTORY = str(ROOT / "instances" / "factory.json")

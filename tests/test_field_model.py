@@ -13,9 +13,9 @@ from conftest import field_instances, fleet_instances, tiny_instances
 from oracles import model_oracle as oracle
 
 import voiopt
-from voiopt import lattice
+from voiopt.core.instance import from_dict
 from voiopt.errors import InstanceError, PlanError
-from voiopt.instance import from_dict
+from voiopt.grid import lattice
 
 CASES = field_instances()
 

@@ -9,9 +9,9 @@ import hypothesis.strategies as st
 from hypothesis import given
 
 import voiopt
-from voiopt.cli import main
+from voiopt.cli.main import main
 from voiopt.experiments.paper import ROBOT_METHODS, ROBOTS, SWEEPS
-from voiopt.plots import SCHEMES
+from voiopt.experiments.plots import SCHEMES
 
 
 def test_plot_a_result(tmp_path, capsys, case_study):
@@ -62,7 +62,7 @@ def test_a_fleet_plot_gives_each_robot_its_colour_and_marks_its_uploads(tmp_path
     matplotlib.use("Agg")
     from matplotlib import pyplot as plt
 
-    from voiopt.plots import ROBOT_COLOURS, draw_plan
+    from voiopt.experiments.plots import ROBOT_COLOURS, draw_plan
 
     inst = voiopt.generate(6, 12, seed=3, robots=3, dock=True, end="start", max_moves=8)
     result = voiopt.solve(inst, "greedy")
@@ -96,8 +96,8 @@ def _uploads_of(label: str) -> list[tuple[int, int]]:
 
 
 def test_uploads_at_one_point_share_one_label_that_names_each_slot():
-    from voiopt.plan import Plan
-    from voiopt.plots import upload_labels
+    from voiopt.core.plan import Plan
+    from voiopt.experiments.plots import upload_labels
 
     a, b = (1.0, 3.0), (2.0, 3.0)
     positions = [(0.0, 3.0), a, a, a, a, b, a, a]
@@ -112,8 +112,8 @@ def test_uploads_at_one_point_share_one_label_that_names_each_slot():
 def test_upload_labels_name_every_upload_once_in_a_line_per_sensor_and_few_ranges(steps):
     """A long stay that alternates sensors used to get one line per visit (a review of the
     fleet plot, 2026-12-03): now each line is one sensor's, with at most RANGES_PER_LINE ranges."""
-    from voiopt.plan import Plan
-    from voiopt.plots import RANGES_PER_LINE, upload_labels
+    from voiopt.core.plan import Plan
+    from voiopt.experiments.plots import RANGES_PER_LINE, upload_labels
 
     positions, schedule = tuple((float(x), 0.0) for x, _ in steps), tuple(u for _, u in steps)
     labels = upload_labels(Plan(positions, schedule))
@@ -135,8 +135,8 @@ def test_a_robot_that_stays_and_uploads_every_slot_gets_one_label():
     matplotlib.use("Agg")
     from matplotlib import pyplot as plt
 
-    from voiopt.plan import Plan
-    from voiopt.plots import draw_plan
+    from voiopt.core.plan import Plan
+    from voiopt.experiments.plots import draw_plan
 
     inst = voiopt.generate(3, 10, seed=1)
     plan = Plan(tuple([inst.start] * inst.horizon), tuple([0] * inst.horizon))

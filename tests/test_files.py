@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import voiopt
-from voiopt import _files
+from voiopt.runtime import files
 
 SCALARS = st.one_of(st.none(), st.booleans(), st.integers(-(2**70), 2**70), st.floats(allow_nan=False, allow_infinity=False))
 LEAVES = st.one_of(SCALARS, st.text(alphabet=st.sampled_from('ab,[]{}":\\\n é'), max_size=6))
@@ -34,14 +34,14 @@ VALUES = st.recursive(
 def test_the_layout_is_jsons_own(obj):
     """With the length from which lists are laid out by hand lowered to 2, every list of
     scalars and of lists of scalars on the way goes through that path, at any depth."""
-    with mock.patch.object(_files, "LONG_LIST", 2):
-        assert _files.dumps_json(obj) == json.dumps(obj, indent=2, allow_nan=False)
-    assert _files.dumps_json(obj) == json.dumps(obj, indent=2, allow_nan=False)
+    with mock.patch.object(files, "LONG_LIST", 2):
+        assert files.dumps_json(obj) == json.dumps(obj, indent=2, allow_nan=False)
+    assert files.dumps_json(obj) == json.dumps(obj, indent=2, allow_nan=False)
 
 
 def test_a_nan_in_a_long_list_is_refused_as_json_refuses_it():
     with pytest.raises(ValueError):
-        _files.dumps_json({"x": [1.0] * 300 + [float("nan")]})
+        files.dumps_json({"x": [1.0] * 300 + [float("nan")]})
 
 
 def test_a_long_plans_result_reads_back_as_written(tmp_path):
@@ -58,12 +58,12 @@ def test_a_nan_is_named_and_deep_or_circular_objects_fare_as_in_json():
     """After review: a NaN in a long list is refused with json's own message, which names it;
     nesting deeper than dumps_json looks and a circular reference are json's to handle."""
     with pytest.raises(ValueError, match="not JSON compliant: nan"):
-        _files.dumps_json({"positions": [[0, 0]] * 300 + [[float("nan"), 0]]})
+        files.dumps_json({"positions": [[0, 0]] * 300 + [[float("nan"), 0]]})
     deep: list = [1] * 300
     for _ in range(900):
         deep = [deep]
-    assert _files.dumps_json(deep) == json.dumps(deep, indent=2)
+    assert files.dumps_json(deep) == json.dumps(deep, indent=2)
     loop: list = [1] * 300
     loop.append(loop)
     with pytest.raises(ValueError, match="Circular reference"):
-        _files.dumps_json({"a": loop})
+        files.dumps_json({"a": loop})

@@ -19,10 +19,10 @@ from pettingzoo.test import parallel_api_test
 
 import voiopt
 import voiopt.env as voienv
+from voiopt.core.plan import FleetPlan
+from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
-from voiopt.plan import FleetPlan
 from voiopt.pz_env import VoIParallelEnv, parallel_env
-from voiopt.simulate import simulate
 
 CASES = fleet_instances()
 MOVES = [(0, 0), (0, 1), (0, -1), (1, 0), (-1, 0)]
@@ -121,7 +121,7 @@ def test_a_conflict_replaces_the_higher_indexed_agent():
     d = voiopt.generate(1, 3, width=1.0, height=1.0, seed=5, power_w=1.0).to_dict()
     del d["start"]
     d["robots"] = [{"start": [0, 0]}, {"start": [1, 1]}]
-    env = parallel_env(instance=voiopt.instance.from_dict(d))
+    env = parallel_env(instance=voiopt.core.instance.from_dict(d))
     env.reset()
     north, west = 1, 4  # robot 0 from (0, 0) north to (0, 1); robot 1 from (1, 1) west to (0, 1)
     _, rewards, _, _, infos = env.step({"robot_0": north, "robot_1": west})

@@ -16,9 +16,9 @@ from hypothesis import strategies as st
 from oracles import model_oracle as oracle
 
 import voiopt
+from voiopt.core.instance import from_dict
+from voiopt.core.plan import FleetPlan, Plan
 from voiopt.errors import InstanceError, PlanError
-from voiopt.instance import from_dict
-from voiopt.plan import FleetPlan, Plan
 
 CASES = fleet_instances()
 
@@ -57,7 +57,7 @@ def test_one_robot_instance_accepts_both_forms_with_the_same_metrics(case_study)
     robots = copy.deepcopy(d)
     robots["robots"] = [{"start": robots.pop("start")}]
     assert from_dict(robots) == case_study
-    plan = voiopt.load_plan(voiopt.instance.Path(__file__).parent.parent / "instances" / "case-study.plan.json")
+    plan = voiopt.load_plan(voiopt.core.instance.Path(__file__).parent.parent / "instances" / "case-study.plan.json")
     wrapped = Plan.from_dict({"robots": [plan.to_dict()]})
     assert wrapped == plan
     assert voiopt.evaluate(case_study, wrapped) == voiopt.evaluate(case_study, plan)
@@ -116,7 +116,7 @@ def test_rules_between_robots_reject_with_the_robot_slot_and_rule(rule, plan, me
     # and on the command line: one line, exit 2
     (tmp_path / "i.json").write_text(json.dumps(d))
     (tmp_path / "p.json").write_text(json.dumps(plan))
-    from voiopt.cli import main
+    from voiopt.cli.main import main
     assert main(["evaluate", str(tmp_path / "i.json"), str(tmp_path / "p.json")]) == 2
 
 
@@ -172,7 +172,7 @@ def test_a_fleet_that_cannot_finish_together_is_rejected_in_one_line(tmp_path, c
     """MODEL.md section 9: an instance that admits no legal plan is rejected by validation. In
     this corridor each robot alone can reach the other's start, but they cannot pass each other
     (the oracle finds no legal plan); with a second lane they can."""
-    from voiopt.cli import main
+    from voiopt.cli.main import main
 
     wide = {"area": {"width": 2, "height": 1}, "step": 1, "horizon": 6,
             "robots": [{"start": [0, 0], "end": [2, 0]}, {"start": [2, 0], "end": [0, 0]}],
@@ -213,10 +213,10 @@ def test_the_joint_moves_are_built_in_chunks_that_a_stop_interrupts(monkeypatch)
 
     import numpy as np
 
-    from voiopt import _grid, joint
-    from voiopt.stop import Stop, Stopped
+    from voiopt.grid import joint, paths
+    from voiopt.runtime.stop import Stop, Stopped
 
-    nb = _grid.neighbors(3, 2, np.array([False, False, True, False, False, False]))  # 3 x 2 points, one blocked
+    nb = paths.neighbors(3, 2, np.array([False, False, True, False, False, False]))  # 3 x 2 points, one blocked
     n, K = nb.shape[0], 3
     monkeypatch.setattr(joint, "_MOVES", type(joint._MOVES)())
     monkeypatch.setattr(joint, "CHUNK", 5)  # n**K = 216 joint points: 44 chunks
@@ -286,7 +286,7 @@ def test_the_alive_table_matches_brute_force_in_every_slot(data):
     blocked points."""
     import numpy as np
 
-    from voiopt import _grid, joint
+    from voiopt.grid import joint, paths
 
     K = data.draw(st.sampled_from([2, 2, 3]))
     nx, ny = data.draw(st.integers(1, 3)), data.draw(st.integers(2, 3))
@@ -302,7 +302,7 @@ def test_the_alive_table_matches_brute_force_in_every_slot(data):
     mask = np.zeros(nx * ny, dtype=bool)
     for k, l in blocked:
         mask[k * ny + l] = True
-    tab = joint.table(_grid.neighbors(nx, ny, mask), [-1 if e is None else e[0] * ny + e[1] for e in ends], budgets, T)
+    tab = joint.table(paths.neighbors(nx, ny, mask), [-1 if e is None else e[0] * ny + e[1] for e in ends], budgets, T)
     bud, counted, radix = joint.budgets(budgets, T)
     want = _alive_by_brute_force(nx, ny, blocked, ends, [int(b) if c else None for b, c in zip(bud, counted, strict=True)], T)
     for (t, pts, made), alive in want.items():
@@ -318,10 +318,10 @@ def test_the_alive_table_stores_only_the_slots_that_differ(monkeypatch):
     copies, 6.9 s to write. The memory limit counts the slots stored as they are built."""
     import numpy as np
 
-    from voiopt import _grid, joint
-    from voiopt.stop import MEMORY_LIMIT, Stop, Stopped
+    from voiopt.grid import joint, paths
+    from voiopt.runtime.stop import MEMORY_LIMIT, Stop, Stopped
 
-    nb = _grid.neighbors(3, 3, np.zeros(9, dtype=bool))
+    nb = paths.neighbors(3, 3, np.zeros(9, dtype=bool))
     args = (nb, [0, 8, 2], [3, None, 4], 600)
     tab = joint.table(*args)
     assert tab.first > 0 and len(tab.alive) + tab.first == 600 and len(tab.alive) < 20

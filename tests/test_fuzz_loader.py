@@ -25,9 +25,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from voiopt import lattice
+from voiopt.core.instance import Instance, from_dict, loads
 from voiopt.errors import VoioptError
-from voiopt.instance import Instance, from_dict, loads
+from voiopt.grid import lattice
 
 MAX_SECONDS = 1.0
 MAX_BYTES = 100 * 2**20

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import voiopt
-from voiopt import fields, lattice
 from voiopt.errors import OptionError
-from voiopt.generate import case_study_plan, generate_set, write_set
+from voiopt.grid import lattice
+from voiopt.networks import fields
+from voiopt.networks.generate import case_study_plan, generate_set, write_set
 
 
 def test_same_seed_same_instances():

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 import voiopt
-from voiopt.instance import from_dict
+from voiopt.core.instance import from_dict
 
 GOLDEN = json.loads((Path(__file__).parent / "data" / "golden_plans.json").read_text())
 

@@ -9,9 +9,8 @@ from conftest import ROOT, solve_model_file
 from test_cli import one_line_error, run
 
 import voiopt
-from voiopt.models.milp import export
-from voiopt.models.milp.export import covering_levels
-from voiopt.models.milp.solution_file import import_solution
+from voiopt.solvers.milp.export import covering_levels, export
+from voiopt.solvers.milp.solution_file import import_solution
 
 DOCK = ROOT / "instances" / "dock.json"
 
@@ -186,9 +185,9 @@ def test_a_file_cut_short_or_of_another_model_is_refused(capsys, tmp_path):
     refused(text.replace("# Rows", f"{first} {columns[first]}\n# Rows", 1), f"{first}: given twice")
     fewer = inst.to_dict()
     fewer["sensors"] = fewer["sensors"][:-1]  # the model has the last sensor's y columns, this instance not
-    refused(text, "which .* has not\\): was it exported from another instance", voiopt.instance.from_dict(fewer))
+    refused(text, "which .* has not\\): was it exported from another instance", voiopt.core.instance.from_dict(fewer))
     shorter = {**inst.to_dict(), "horizon": inst.horizon - 1}
-    refused(text, "which .* has not\\): was it exported from another instance", voiopt.instance.from_dict(shorter))
+    refused(text, "which .* has not\\): was it exported from another instance", voiopt.core.instance.from_dict(shorter))
 
 
 def test_a_whole_solution_of_another_objectives_model_is_named_as_such(tmp_path):
@@ -213,8 +212,8 @@ def test_an_exported_model_of_extreme_worths_solves_to_the_optimum(tmp_path):
     it: a review found the old unit gives the optimum too.)"""
     import json
 
-    from voiopt.instance import from_dict
-    from voiopt.solvers.milp import TOLERANCES
+    from voiopt.core.instance import from_dict
+    from voiopt.solvers.milp.solver import TOLERANCES
 
     data = json.loads((ROOT / "tests" / "data" / "milp_extreme_worths.json").read_text())
     inst = from_dict(next(d for d in data if d["name"] == "oracle2-tdma-a"))

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import voiopt
+from voiopt.core.instance import from_dict, load, loads, save
 from voiopt.errors import InstanceError
-from voiopt.instance import from_dict, load, loads, save
 
 GOOD = {
     "name": "x",

@@ -1,4 +1,4 @@
-"""numba's disk cache of voiopt's kernels is stamped with every kernel module (voiopt/_jit.py):
+"""numba's disk cache of voiopt's kernels is stamped with every kernel module (voiopt/jit.py):
 a kernel that inlines a kernel of another module is recompiled when only that module changes,
 and loaded from the cache when nothing changed."""
 
@@ -12,19 +12,19 @@ from pathlib import Path
 
 import numpy as np
 
-from voiopt import _jit
-from voiopt.solvers import _dp_core
+from voiopt.runtime import jit
+from voiopt.solvers.dp import kernels
 
-PACKAGE = Path(_jit.__file__).resolve().parent
+PACKAGE = Path(jit.__file__).resolve().parent
 
 RUN = """
 import sys
 from pathlib import Path
 import numpy as np
 
-from voiopt import _jit
-_jit.ROOT = Path(sys.argv[1]).resolve()
-_jit.KERNEL_MODULES = ("callee.py", "caller.py")
+from voiopt.runtime import jit
+jit.ROOT = Path(sys.argv[1]).resolve()
+jit.KERNEL_MODULES = ("callee.py", "caller.py")
 sys.path.insert(0, sys.argv[1])
 import caller
 print(caller.run(1))
@@ -32,7 +32,7 @@ print(caller.run(1))
 
 CALLER = """
 from callee import step
-from voiopt._jit import njit
+from voiopt.runtime.jit import njit
 
 @njit(cache=True)
 def run(x):
@@ -40,7 +40,7 @@ def run(x):
 """
 
 CALLEE = """
-from voiopt._jit import njit
+from voiopt.runtime.jit import njit
 
 @njit(cache=True, inline="always")
 def step(x):
@@ -53,13 +53,13 @@ def test_every_module_that_defines_kernels_is_stamped_and_takes_njit_from_jit():
     for path in PACKAGE.rglob("*.py"):
         name = path.relative_to(PACKAGE).as_posix()
         text = path.read_text()
-        if name in ("_jit.py", "_numba_start.py"):  # _numba_start compiles one trivial kernel to start numba
+        if name in ("runtime/jit.py", "runtime/numba_start.py"):  # numba_start compiles one trivial kernel to start numba
             continue
         if re.search(r"^\s*@njit\(", text, re.M):
             defines.add(name)
         assert not re.search(r"^\s*(import numba|from numba\b)", text, re.M), f"{name} imports numba itself"
-    assert defines == set(_jit.KERNEL_MODULES)
-    assert isinstance(_dp_core.expand._cache._impl._locator, _jit._Stamped)
+    assert defines == set(jit.KERNEL_MODULES)
+    assert isinstance(kernels.expand._cache._impl._locator, jit._Stamped)
 
 
 def _run(folder: Path) -> tuple[str, str]:
@@ -87,12 +87,12 @@ def test_editing_only_the_inlined_module_recompiles_its_caller(tmp_path):
 
 
 def test_prefetch_is_a_hint_that_changes_no_result():
-    @_jit.njit
+    @jit.njit
     def total(vector, matrix):
         s = 0.0
         for i in range(vector.shape[0] + 64):  # past the end too: a prefetch never faults
-            _jit.prefetch(vector, i)
-            _jit.prefetch(matrix, i % matrix.shape[0])
+            jit.prefetch(vector, i)
+            jit.prefetch(matrix, i % matrix.shape[0])
         for i in range(vector.shape[0]):
             s += vector[i]
         return s + matrix.sum()

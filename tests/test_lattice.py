@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from voiopt import lattice
-from voiopt.instance import from_dict
+from voiopt.core.instance import from_dict
+from voiopt.grid import lattice
 
 
 def _inst(width=5, height=3, step=1.0, start=(0, 0), sensors=((1.5, 1.0),), d_th=1.0):

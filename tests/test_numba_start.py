@@ -30,7 +30,7 @@ def test_the_command_line_skips_numba_blas_check_and_scipy_linalg_still_imports(
     out = tmp_path / "r.json"
     cli = (f"import sys; sys.argv = ['voiopt', 'solve', {CASE!r}, '--method', {method!r}, '--episodes', '10', "
            f"'--quiet', '-o', {str(out)!r}]\n"
-           "from voiopt import cli\n"
+           "from voiopt.cli import main as cli\n"
            "try:\n    cli.run()\nexcept SystemExit as e:\n    assert e.code == 0, e.code\n")
     if method == "dp":
         cli = cli.replace(", '--episodes', '10'", "")
@@ -46,19 +46,19 @@ def test_the_library_leaves_numba_blas_check_alone():
 
 
 def test_the_command_line_imports_numba_only_for_commands_that_use_it():
-    code = "import sys\nimport voiopt.cli\nprint('numba' in sys.modules)\n"
+    code = "import sys\nimport voiopt.cli.main\nprint('numba' in sys.modules)\n"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
     assert out.stdout.split()[-1] == "False"  # validate, generate, evaluate... start without it
 
 
 def test_validating_a_fleet_with_ends_starts_numba_the_same_way(tmp_path):
     """Validation decides with a numba table whether robots with ends can finish together
-    (voiopt.joint): from the command line that start skips the BLAS check too."""
+    (voiopt.grid.joint): from the command line that start skips the BLAS check too."""
     fleet = tmp_path / "fleet.json"
     fleet.write_text(json.dumps({"area": {"width": 2, "height": 1}, "horizon": 6, "sensors": [{"position": [1, 0.5], "rho": 0.5}],
                                  "robots": [{"start": [0, 0], "end": [2, 0]}, {"start": [2, 0], "end": [0, 0]}]}))
     cli = (f"import sys; sys.argv = ['voiopt', 'validate', {str(fleet)!r}]\n"
-           "from voiopt import cli\n"
+           "from voiopt.cli import main as cli\n"
            "try:\n    cli.run()\nexcept SystemExit as e:\n    assert e.code == 0, e.code\n"
-           "assert 'voiopt.joint' in sys.modules\n")
+           "assert 'voiopt.grid.joint' in sys.modules\n")
     assert _fresh(cli) == "False"

@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from voiopt import physics
-from voiopt.instance import Channel
+from voiopt.core import physics
+from voiopt.core.instance import Channel
 
 CH = Channel()
 
@@ -141,22 +141,22 @@ def test_libm_edges_stay_quiet_and_keep_their_values():
 
 
 def test_the_compiled_loop_gives_pythons_libm_bits():
-    """Large arrays take libm's log, log1p, exp and expm1 from a compiled loop (voiopt._libm),
+    """Large arrays take libm's log, log1p, exp and expm1 from a compiled loop (voiopt.runtime.libm),
     about 20 ns an element against a few hundred through Python's math (valuing a plan of 10^6
     slots took 4 to 5 s after the stop rule had fired). Every element, edges included (zeros of
     both signs, -1, infinities, nan, subnormals, overflow), must have the bits of physics'
     wrappers around Python's math."""
-    from voiopt import _libm
+    from voiopt.runtime import libm
 
     rng = np.random.default_rng(5)
     edges = [0.0, -0.0, 1.0, -1.0, math.inf, -math.inf, math.nan, 5e-324, -5e-324, 1e-300, 709.78, 709.79, 710.0,
              -745.1, -746.0, -1 + 2**-53, -1 - 2**-52, -0.5, 0.5, 1e308, -1e308]
     x = np.concatenate([edges, rng.choice([-1.0, 1.0], 20_000) * 10.0 ** rng.uniform(-320, 308, 20_000),
                         rng.uniform(-2.0, 2.0, 20_000), -rng.uniform(0, 800, 4_999)])  # 45,020 = 9,004 x 5
-    for f, code in ((physics._log, _libm.LOG), (physics._log1p, _libm.LOG1P), (physics._exp, _libm.EXP),
-                    (physics._expm1, _libm.EXPM1)):
+    for f, code in ((physics._log, libm.LOG), (physics._log1p, libm.LOG1P), (physics._exp, libm.EXP),
+                    (physics._expm1, libm.EXPM1)):
         want = np.fromiter(map(f, x.tolist()), float, x.size)
-        got = _libm.apply(code, x.reshape(-1, 5)).reshape(-1)
+        got = libm.apply(code, x.reshape(-1, 5)).reshape(-1)
         assert np.array_equal(got.view(np.int64), want.view(np.int64)), f.__name__
 
 
@@ -176,8 +176,8 @@ def test_a_large_array_is_valued_with_the_same_bits_either_way(monkeypatch):
 
 
 def test_where_numba_vectorises_through_svml_the_python_path_is_kept(monkeypatch):
-    from voiopt import _libm
+    from voiopt.runtime import libm
 
-    monkeypatch.setattr(_libm, "USING_SVML", True)
+    monkeypatch.setattr(libm, "USING_SVML", True)
     assert not physics.compiled(physics.COMPILED_FROM)
-    assert _libm.apply(_libm.LOG, np.ones(3)) is None
+    assert libm.apply(libm.LOG, np.ones(3)) is None

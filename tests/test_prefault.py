@@ -1,4 +1,4 @@
-"""voiopt/_prefault.py: memory backed in a background thread, its contents untouched."""
+"""voiopt/prefault.py: memory backed in a background thread, its contents untouched."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import threading
 import numpy as np
 import pytest
 
-from voiopt import _prefault
+from voiopt.solvers.qlearning import prefault
 
 MB = 1 << 20
 
@@ -30,14 +30,14 @@ def _thread_faults() -> int:
 
 
 def test_available_where_linux_has_it():
-    assert (_prefault._madvise() is not None) == SUPPORTED
+    assert (prefault._madvise() is not None) == SUPPORTED
 
 
 @pytest.mark.skipif(not SUPPORTED, reason="MADV_POPULATE_WRITE needs Linux 5.14 or later")
 def test_backed_pages_are_written_without_faults():
     fresh = np.empty(64 * MB // 8)  # a fresh mapping: no page backed yet
-    assert _prefault.populate(fresh)
-    assert _prefault.flush(30)
+    assert prefault.populate(fresh)
+    assert prefault.flush(30)
     before = _thread_faults()
     fresh[::512] = 1.0  # one write per page
     backed_faults = _thread_faults() - before
@@ -55,30 +55,30 @@ def test_contents_unchanged_while_written():
     """Populating never changes memory, even a range being written at the same time."""
     a = np.empty(32 * MB // 8)
     b = np.zeros(32 * MB // 8)
-    _prefault.populate(a)
-    _prefault.populate(b)
+    prefault.populate(a)
+    prefault.populate(b)
     a[:] = np.arange(len(a), dtype=np.float64)  # written while the thread may be populating it
-    assert _prefault.flush(30)
+    assert prefault.flush(30)
     assert np.array_equal(a, np.arange(len(a), dtype=np.float64))
     assert not b.any()
 
 
 def test_refuses_what_it_cannot_populate():
-    assert not _prefault.populate(np.zeros(8))  # less than a page
-    assert not _prefault.populate(np.zeros((1024, 1024))[:, ::2])  # not contiguous
-    assert not _prefault.populate(np.zeros(4 * MB // 8), 10, 10)  # an empty range
+    assert not prefault.populate(np.zeros(8))  # less than a page
+    assert not prefault.populate(np.zeros((1024, 1024))[:, ::2])  # not contiguous
+    assert not prefault.populate(np.zeros(4 * MB // 8), 10, 10)  # an empty range
 
 
 def _child(out):
     a = np.empty(8 * MB // 8)
-    _prefault.populate(a)
-    out.put(_prefault.flush(10))
+    prefault.populate(a)
+    out.put(prefault.flush(10))
 
 
 @pytest.mark.skipif(not SUPPORTED, reason="MADV_POPULATE_WRITE needs Linux 5.14 or later")
 def test_forked_child_gets_its_own_thread():
-    _prefault.populate(np.empty(4 * MB // 8))  # the parent's thread runs
-    assert _prefault.flush(30)
+    prefault.populate(np.empty(4 * MB // 8))  # the parent's thread runs
+    assert prefault.flush(30)
     ctx = multiprocessing.get_context("fork")
     out = ctx.Queue()
     child = ctx.Process(target=_child, args=(out,))
@@ -91,7 +91,7 @@ def test_forked_child_gets_its_own_thread():
 @pytest.mark.skipif(not SUPPORTED, reason="MADV_POPULATE_WRITE needs Linux 5.14 or later")
 def test_a_cancelled_job_stops_early_and_lets_go_of_its_array():
     a = np.empty(512 * MB // 8)  # 64 pieces: far more than the thread backs before the cancel
-    job = _prefault.populate(a)
+    job = prefault.populate(a)
     job.cancel()
-    assert _prefault.flush(30)
+    assert prefault.flush(30)
     assert job.owner is None and job.start < job.end

@@ -1,4 +1,4 @@
-"""Progress bars as a person reads them (voiopt/progress.py)."""
+"""Progress bars as a person reads them (voiopt/runtime/progress.py)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import io
 
 from rich.console import Console
 
-from voiopt.progress import progress_bar, text_column
+from voiopt.runtime.progress import progress_bar, text_column
 
 
 def shown(bar, width: int) -> str:

@@ -11,10 +11,12 @@ import pytest
 from test_cli import one_line_error, run
 
 import voiopt
-from voiopt import cli_validate, fields, joint
+from voiopt.cli import validate as cli_validate
 from voiopt.errors import InstanceWarning, OptionError
-from voiopt.generate import case_study
-from voiopt.models import mdp
+from voiopt.grid import joint
+from voiopt.mdp import robot as mdp
+from voiopt.networks import fields
+from voiopt.networks.generate import case_study
 
 
 @pytest.mark.parametrize("penalty, message", [
@@ -79,7 +81,7 @@ def test_a_duplicated_sensor_is_a_one_line_warning(tmp_path, capsys):
         warnings.simplefilter("error")
         voiopt.load("instances/case-study.json")  # no warning otherwise
     with pytest.warns(InstanceWarning, match=r"sensors\[3\]: same position"):
-        voiopt.instance.from_dict(d)
+        voiopt.core.instance.from_dict(d)
 
 
 # ------------------------------------------------------------------------------ fleets

@@ -18,7 +18,7 @@ import pytest
 
 import voiopt
 from voiopt.experiments import runner
-from voiopt.generate import case_study_plan, generate_set, write_set
+from voiopt.networks.generate import case_study_plan, generate_set, write_set
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE = str(ROOT / "instances" / "case-study.json")
@@ -254,7 +254,7 @@ class Interrupt:  # delivers a real Ctrl-C to this process the moment numpy star
             os.kill(os.getpid(), signal.SIGINT)
 sys.meta_path.insert(0, Interrupt())
 sys.argv = ["voiopt", "solve", sys.argv[1], "--method", "dp"]
-from voiopt.__main__ import run  # what the console script runs
+from voiopt.__main__ import run# what the console script runs
 run()
 """
 
@@ -448,7 +448,7 @@ def test_an_interrupted_solve_says_where_its_best_plan_went(args, kept, warm_qle
 def test_a_ctrl_c_while_the_temporary_file_is_made_leaves_no_file(tmp_path, monkeypatch):
     """The temporary file's name is drawn before it is made: an interrupt just after the
     making (before anything could note the name) still removes it."""
-    from voiopt import _files
+    from voiopt.runtime import files
 
     real_open = os.open
 
@@ -456,16 +456,16 @@ def test_a_ctrl_c_while_the_temporary_file_is_made_leaves_no_file(tmp_path, monk
         real_open(path, flags, mode)
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(_files.os, "open", open_then_interrupt)
+    monkeypatch.setattr(files.os, "open", open_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
-        _files.write_json_atomic(tmp_path / "r.json", {"a": 1})
+        files.write_json_atomic(tmp_path / "r.json", {"a": 1})
     assert list(tmp_path.iterdir()) == []
 
 
 WRITE_KILLED = """
 import os, signal, sys
-from voiopt._files import write_json_atomic
-from voiopt.stop import Interrupted
+from voiopt.runtime.files import write_json_atomic
+from voiopt.runtime.stop import Interrupted
 class Term(dict):  # a result whose writing receives SIGTERM half way
     def items(self):
         os.kill(os.getpid(), signal.SIGTERM)
@@ -535,7 +535,7 @@ def test_a_writer_by_file_name_replaces_the_file_only_when_it_finishes(tmp_path)
     """atomic_path (HiGHS writes a model by file name): a write that fails leaves the old file
     and no temporary one; one that finishes replaces it; the temporary name keeps the suffix,
     which picks HiGHS's format."""
-    from voiopt._files import atomic_path
+    from voiopt.runtime.files import atomic_path
 
     model = tmp_path / "m.mps"
     model.write_text("OLD")

@@ -10,10 +10,10 @@ import pytest
 
 import voiopt
 from voiopt import objectives
-from voiopt.cli import main
+from voiopt.cli.main import main
 from voiopt.experiments import gaps as report
 from voiopt.experiments import runner
-from voiopt.generate import generate_set, write_set
+from voiopt.networks.generate import generate_set, write_set
 
 
 @pytest.fixture(scope="module")
@@ -266,7 +266,7 @@ def test_a_report_with_no_exact_method_says_there_is_no_gap(tmp_path, nets):
 
 def test_the_reading_of_v_is_given_only_where_the_reward_has_v():
     """aoi-qlearning's reward is the age alone: its rows read no reward_units (they read bit/s)."""
-    from voiopt.result import Result
+    from voiopt.core.result import Result
 
     def res(method, reward):
         return Result("n", method, "mean-min-voi", "feasible", 1.0, None, None, 0.1, None,

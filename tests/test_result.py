@@ -9,9 +9,9 @@ import pytest
 
 import voiopt
 from voiopt import objectives
-from voiopt.generate import case_study_plan
-from voiopt.plan import Plan
-from voiopt.result import Result, load_result
+from voiopt.core.plan import Plan
+from voiopt.core.result import Result, load_result
+from voiopt.networks.generate import case_study_plan
 
 CASE_STUDY_PLAN = case_study_plan().to_dict()
 
@@ -79,7 +79,7 @@ def test_failed_write_leaves_the_old_file(tmp_path, case_study, plan):
 
 
 def test_plan_from_indices_round_trips(case_study, plan):
-    from voiopt.simulate import check_plan
+    from voiopt.core.simulate import check_plan
 
     idx, sched = check_plan(case_study, plan)
     assert Plan.from_indices(case_study, idx, sched) == plan

@@ -10,10 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import voiopt
+from voiopt.core.plan import Plan
+from voiopt.core.simulate import check_plan, simulate
 from voiopt.errors import PlanError
-from voiopt.generate import case_study_plan
-from voiopt.plan import Plan
-from voiopt.simulate import check_plan, simulate
+from voiopt.networks.generate import case_study_plan
 
 CASE_STUDY_PLAN = case_study_plan().to_dict()
 
@@ -77,7 +77,7 @@ def instance_and_plan(draw):
         rho=(0.05, 0.95), power_w=draw(st.sampled_from([1.0, 0.01, 0.001])),
         initial_aoi=(1, 6), seed=draw(st.integers(0, 10_000)),
     )
-    from voiopt import lattice
+    from voiopt.grid import lattice
 
     lat = lattice.build(inst)
     p, positions, schedule = lat.start, [], []
@@ -154,8 +154,8 @@ def test_sensor_out_of_every_range_only_decays():
 def long_indices(draw):
     """A network and (K, T) point indices and schedule, T around the simulator's LONG; the
     walk and uploads random (the dynamics do not need them legal), distinct sensors per slot."""
-    from voiopt import lattice
-    from voiopt.simulate import LONG
+    from voiopt.core.simulate import LONG
+    from voiopt.grid import lattice
 
     n, K = draw(st.integers(1, 6)), draw(st.integers(1, 3))
     T = draw(st.sampled_from([1, 7, LONG - 1, LONG, LONG + 2500]))
@@ -206,8 +206,8 @@ def _same_as_slot_by_slot(inst, idx, sched):
     on), against slot by slot with Python's math."""
     from unittest import mock
 
-    from voiopt import physics
-    from voiopt.simulate import simulate_indices, slot_by_slot
+    from voiopt.core import physics
+    from voiopt.core.simulate import simulate_indices, slot_by_slot
 
     with mock.patch.object(physics, "compiled", lambda size: False):
         aoi, dist, v = slot_by_slot(inst, idx, sched)
@@ -242,7 +242,7 @@ def test_a_long_plan_is_checked_at_once_and_its_first_fault_named():
     ups = [t for t, u in enumerate(good["schedule"]) if u is not None]
     assert fault(schedule=[(ups[-1], -1), (ups[-2], 7)]).startswith(f"schedule[{ups[-2]}]: unknown sensor index 7")
     assert fault(schedule=[(ups[-1], -1)]).startswith(f"schedule[{ups[-1]}]: unknown sensor index -1")
-    from voiopt import lattice
+    from voiopt.grid import lattice
 
     lat = lattice.build(inst)
     far = [t for t, xy in enumerate(good["positions"]) if not lat.in_range[0, lat.index(*xy)]]
@@ -268,7 +268,7 @@ def test_a_plans_file_is_read_the_same_at_c_speed_and_slot_by_slot(positions, sc
     same plan, or the same error."""
     from unittest import mock
 
-    from voiopt import plan as plan_mod
+    from voiopt.core import plan as plan_mod
 
     def read():
         try:
@@ -288,7 +288,7 @@ def test_a_plans_file_is_read_the_same_at_c_speed_and_slot_by_slot(positions, sc
 def test_after_review_odd_plans_built_in_python_fail_as_before():
     """A huge int among the positions names the first bad slot (it raised OverflowError);
     Plan's conversions refuse what they cannot hold instead of truncating it."""
-    from voiopt import instance as im
+    from voiopt.core import instance as im
 
     inst = im.from_dict({"name": "r", "area": {"width": 2, "height": 2}, "horizon": 3, "start": [0, 0],
                          "sensors": [{"position": [1, 1], "rho": 0.5}]})
@@ -311,7 +311,7 @@ def test_a_sensor_just_beyond_d_th_is_named_with_the_digits_that_show_it():
                            (1.00005, 1.00004, "distance 1.00005 > d_th 1.00004"),  # a review: "distance 1 > d_th 1.00004"
                            (1.0, 0.99999, "distance 1 > d_th 0.99999"),
                            (1.5, 1.0, "distance 1.5 > d_th 1)")]:
-        inst = voiopt.instance.from_dict({"area": {"width": 2, "height": 1}, "horizon": 1, "start": [0, 0],
+        inst = voiopt.core.instance.from_dict({"area": {"width": 2, "height": 1}, "horizon": 1, "start": [0, 0],
                                           "channel": {"d_th": d_th}, "sensors": [{"position": [x, 0], "rho": 0.5}]})
         with pytest.raises(PlanError) as e:
             voiopt.evaluate(inst, {"positions": [[0, 0]], "schedule": [0]})

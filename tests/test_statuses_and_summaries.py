@@ -8,10 +8,10 @@ import json
 from test_refusals import _corridor
 
 import voiopt
-from voiopt import joint
+from voiopt.core.result import Result
 from voiopt.experiments import demo, gaps
-from voiopt.generate import case_study
-from voiopt.result import Result
+from voiopt.grid import joint
+from voiopt.networks.generate import case_study
 from voiopt.solvers.qlearning import solver as qsolver
 
 
@@ -47,7 +47,7 @@ def test_the_gap_report_shows_plain_messages_and_counts_proofs_as_proven_optimal
 
 
 def test_the_demo_rounds_its_closing_gaps_as_its_table_and_names_a_command_that_runs(monkeypatch):
-    assert demo._pct(0.0002) == "0.02 %" == demo._pct(0.00020000001)
+    assert demo.percent(0.0002) == "0.02 %" == demo.percent(0.00020000001)
     monkeypatch.setattr(demo.shutil, "which", lambda name: None)  # make demo: voiopt is in .venv/bin, not on PATH
     assert demo.command().endswith(" -m voiopt")
 

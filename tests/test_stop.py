@@ -8,7 +8,15 @@ import time
 
 import pytest
 
-from voiopt.stop import INTERRUPTED, MEMORY_LIMIT, TIME_LIMIT, Interrupted, Stop, starting, watch
+from voiopt.runtime.stop import (
+    INTERRUPTED,
+    MEMORY_LIMIT,
+    TIME_LIMIT,
+    Interrupted,
+    Stop,
+    starting,
+    watch,
+)
 
 
 def test_limits_give_their_own_reasons():
@@ -68,7 +76,8 @@ def test_a_signal_while_dp_warms_up_stops_the_solve_not_only_the_warm_up(monkeyp
     """A Ctrl-C or SIGTERM in the warm-up used to stop only its tiny solves: the real solve then
     ran to the end with status optimal (found by a fuzz campaign, 2026-12-02)."""
     import voiopt
-    from voiopt.solvers import base, dp
+    from voiopt.solvers import base
+    from voiopt.solvers.dp import solver as dp
 
     real, sent = dp.build_tables, []
 
@@ -118,7 +127,7 @@ def test_after_a_limit_stopped_the_work_a_second_signal_still_raises_at_once():
 def test_in_a_loop_of_solves_one_signal_stops_one_solve_and_is_remembered():
     """The library's rule (docs/reliability.md): the stopped solve returns, the next one starts
     afresh, and last_signal() tells a script's loop that it was asked to stop."""
-    from voiopt.stop import last_signal
+    from voiopt.runtime.stop import last_signal
 
     with watch() as first:
         os.kill(os.getpid(), signal.SIGTERM)
@@ -133,7 +142,7 @@ def test_a_signal_that_raises_during_a_watchs_set_up_leaves_no_watch_open(monkey
     """A command's SIGTERM handler raises (stop.sigterm_raises); landing just after a watch was
     registered, before its handlers went in, it left that watch open for good: later watches
     in the process installed no handler and a Ctrl-C was swallowed (a review, 2026-12-03)."""
-    from voiopt import stop as stop_mod
+    from voiopt.runtime import stop as stop_mod
 
     class Raising(list):
         def append(self, item):
@@ -151,7 +160,7 @@ def test_a_signal_that_raises_during_a_watchs_set_up_leaves_no_watch_open(monkey
 def test_outside_a_solve_a_hang_up_raises_as_sigterm_does():
     """While a command writes its files (stop.sigterm_raises), SIGHUP raises, so a temporary file
     is removed and the command ends with 129, not killed half-way; an ignored one stays ignored."""
-    from voiopt.stop import sigterm_raises
+    from voiopt.runtime.stop import sigterm_raises
 
     before = signal.signal(signal.SIGHUP, signal.SIG_DFL)  # as in a terminal, even if pytest runs under nohup
     try:

@@ -9,11 +9,11 @@ from oracles import model_oracle as oracle
 from test_cli import one_line_error, run
 
 import voiopt
+from voiopt.core.result import Result
 from voiopt.errors import OptionError, VoioptError
-from voiopt.experiments import voilib
-from voiopt.generate import case_study, case_study_plan
+from voiopt.networks.generate import case_study, case_study_plan
 from voiopt.objectives import OBJECTIVES
-from voiopt.result import Result
+from voiopt.voilib import library as voilib
 
 LIB = voilib.instances()
 CERTS = voilib.certificates()
@@ -128,7 +128,7 @@ def test_score_gives_the_certificate_as_numbers():
 def test_a_result_solved_on_an_edited_copy_is_told_so():
     edited = LIB["paper-n4-t30-000"].to_dict()
     edited["sensors"][0]["rho"] = 0.5 if edited["sensors"][0]["rho"] != 0.5 else 0.6
-    r = voiopt.solve(voiopt.instance.from_dict(edited), method="greedy", objective="mean-min-voi").to_dict()
+    r = voiopt.solve(voiopt.core.instance.from_dict(edited), method="greedy", objective="mean-min-voi").to_dict()
     with pytest.raises(OptionError, match="is not what its plan gives on VoI-Lib's paper-n4-t30-000 .*another instance"):
         voilib.score(r)
     r["instance_sha256"] = voilib.instance_hash(LIB["paper-n4-t30-000"])  # named exactly: the plain message

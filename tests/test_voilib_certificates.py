@@ -10,8 +10,9 @@ import pytest
 from test_cli import one_line_error, run
 
 from voiopt.errors import OptionError
-from voiopt.experiments import voilib, voilib_merge
-from voiopt.experiments.voilib_certificates import provenance, verdict
+from voiopt.voilib import library as voilib
+from voiopt.voilib import merge as voilib_merge
+from voiopt.voilib.certificates import provenance, verdict
 
 SHIPPED = voilib.DATA / "certificates.json"
 

@@ -13,8 +13,9 @@ from pathlib import Path
 import pytest
 from test_cli import one_line_error, run
 
-from voiopt import _files, instance
-from voiopt.generate import case_study
+from voiopt.core import instance
+from voiopt.networks.generate import case_study
+from voiopt.runtime import files
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -26,7 +27,7 @@ class _Full(io.StringIO):
 
 @pytest.fixture
 def full_disk(monkeypatch):
-    """Every file opened for writing by _files takes no byte: write() raises ENOSPC."""
+    """Every file opened for writing by files takes no byte: write() raises ENOSPC."""
     def fdopen(fd, *a, **k):
         os.close(fd)
         return _Full()
@@ -34,13 +35,13 @@ def full_disk(monkeypatch):
 
 
 def _binary(path):
-    with _files.atomic_write(path, binary=True) as f:  # the figures' writer
+    with files.atomic_write(path, binary=True) as f:  # the figures' writer
         f.write(b"png")
 
 
 @pytest.mark.parametrize("write", [
-    lambda p: _files.write_json_atomic(p, {"a": 1}),
-    lambda p: _files.write_csv(p, [{"a": 1}], ["a"]),
+    lambda p: files.write_json_atomic(p, {"a": 1}),
+    lambda p: files.write_csv(p, [{"a": 1}], ["a"]),
     lambda p: instance.save(case_study(), p),
     _binary,
 ])

@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import sys
-from types import ModuleType
 
 from voiopt.errors import VoioptError
 
@@ -23,19 +21,19 @@ __version__ = "0.1.0"
 # name -> the module it lives in
 _HOMES = {
     **dict.fromkeys(("InstanceError", "OptionError", "PlanError", "VoioptError"), "voiopt.errors"),
-    **dict.fromkeys(("case_study", "generate", "generate_set"), "voiopt.generate"),
-    **dict.fromkeys(("Channel", "Instance", "Robot", "Sensor", "load", "save"), "voiopt.instance"),
+    **dict.fromkeys(("case_study", "generate", "generate_set"), "voiopt.networks.generate"),
+    **dict.fromkeys(("Channel", "Instance", "Robot", "Sensor", "load", "save"), "voiopt.core.instance"),
     "OBJECTIVES": "voiopt.objectives",
-    **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.plan"),
-    **dict.fromkeys(("Result", "load_result"), "voiopt.result"),
-    **dict.fromkeys(("Trajectory", "evaluate", "simulate"), "voiopt.simulate"),
+    **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.core.plan"),
+    **dict.fromkeys(("Result", "load_result"), "voiopt.core.result"),
+    **dict.fromkeys(("Trajectory", "evaluate", "simulate"), "voiopt.core.simulate"),
     **dict.fromkeys(("METHODS", "solve"), "voiopt.solvers"),
 }
 
 
 def __getattr__(name: str):
     home = _HOMES.get(name)
-    if home is None:  # a module of the package (voiopt.physics), as an eager import made it
+    if home is None:  # a module of the package (voiopt.core.physics), as an eager import made it
         missing = AttributeError(f"module 'voiopt' has no attribute {name!r}")
         if not name.isidentifier() or name.startswith("__"):
             raise missing
@@ -52,20 +50,6 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_HOMES))
-
-
-class _Package(ModuleType):
-    """``voiopt.simulate`` and ``voiopt.generate`` are the functions, as they always were, even
-    once their modules (of the same names) are imported: Python would otherwise bind each
-    module to its name in the package. The modules stay in sys.modules."""
-
-    def __setattr__(self, name: str, value) -> None:
-        if isinstance(value, ModuleType) and _HOMES.get(name) == f"{__name__}.{name}":
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
 
 
 __all__ = [

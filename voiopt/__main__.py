@@ -4,7 +4,7 @@ Python takes about a third of a second to import the command line (numpy, rich, 
 modules). A Ctrl-C in that time used to end the command with Python's traceback of the import
 it fell in. Nothing has been done or written by then, so it ends in one line, with the exit
 status of Ctrl-C (130). ``import voiopt`` is light (PEP 562), so this module runs before the
-heavy imports. Once imported, the command handles signals itself (voiopt.cli, voiopt.stop). A
+heavy imports. Once imported, the command handles signals itself (voiopt.cli.main, voiopt.runtime.stop). A
 SIGTERM in that time ends the process as SIGTERM does by default: no output, and status 143 in
 a shell."""
 
@@ -16,7 +16,7 @@ import sys
 
 def run() -> None:
     try:
-        from voiopt import cli
+        from voiopt.cli import main as cli
     except KeyboardInterrupt:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C changes nothing now
         sys.stderr.write("voiopt: interrupted (SIGINT) while starting; nothing was done\n")

@@ -49,12 +49,12 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the installed extras
     raise MissingExtraError("gymnasium", "rl") from e
 
-from voiopt import instance as instance_mod
-from voiopt import lattice as lattice_mod
-from voiopt.generate import generate as generate_network
-from voiopt.instance import Instance
-from voiopt.models import mdp as mdp_mod
-from voiopt.plan import Plan
+from voiopt.core import instance as instance_mod
+from voiopt.core.instance import Instance
+from voiopt.core.plan import Plan
+from voiopt.grid import lattice as lattice_mod
+from voiopt.mdp import robot as mdp_mod
+from voiopt.networks.generate import generate as generate_network
 
 ENV_ID = "voiopt/VoICollection-v0"
 CELL = 24  # pixels per lattice point in rgb_array renders
@@ -67,7 +67,7 @@ _OPTIMA: dict[Instance, float] = {}  # the normalising optimum of each instance 
 def _check_normalisable(instance: Instance) -> None:
     """The normalised reward divides by a proven optimum: an instance whose VoI-Lib certificate
     is still open has none (dp would search for it without end), so it is refused up front."""
-    from voiopt.experiments import voilib
+    from voiopt.voilib import library as voilib
 
     interval = voilib.open_certificate(instance, "mean-min-voi")
     if interval is not None:
@@ -94,12 +94,12 @@ def reset_options(options: Any) -> dict:
 
 
 def _check_sample(sample: Any) -> dict:
-    """The keyword arguments of voiopt.generate for sampled networks (without ``seed``)."""
+    """The keyword arguments of voiopt.networks.generate for sampled networks (without ``seed``)."""
     if sample is None:
         return {}
     allowed = [k for k in inspect.signature(generate_network).parameters if k != "seed"]
     if not isinstance(sample, dict):
-        raise OptionError(f"sample: must be a dict of voiopt.generate's arguments, got {sample!r}")
+        raise OptionError(f"sample: must be a dict of voiopt.networks.generate's arguments, got {sample!r}")
     unknown = [k for k in sample if k not in allowed]
     if unknown:
         raise OptionError(f"sample: unknown key {unknown[0]!r} (allowed: {', '.join(allowed)})")
@@ -184,8 +184,8 @@ class VoIEnv(gym.Env):
     def optimum(self) -> float:
         """The certified mean-min-voi optimum that normalises the reward (once per instance)."""
         if self._optimum is None:
-            from voiopt.experiments import voilib
-            from voiopt.solvers import dp
+            from voiopt.solvers.dp import solver as dp
+            from voiopt.voilib import library as voilib
 
             if self.instance not in _OPTIMA:
                 cert = voilib.certified(self.instance, "mean-min-voi")
@@ -387,7 +387,7 @@ class FleetVoIEnv(VoIEnv):
             raise OptionError("reward_mode: a fleet has no certified optimum to normalise by; use 'paper'")
 
     def _load(self, instance: Instance) -> None:
-        from voiopt.models import fleet_mdp
+        from voiopt.mdp import fleet as fleet_mdp
 
         N, K = instance.n_sensors, instance.n_robots
         A = (N + 1) * 5

@@ -41,10 +41,10 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the installed extras
     raise MissingExtraError(e.name or "pettingzoo", "rl") from e
 
+from voiopt.core.instance import Instance
+from voiopt.core.plan import FleetPlan, Plan
 from voiopt.env import VoIEnv, as_integer, reset_options
-from voiopt.instance import Instance
-from voiopt.models import mdp as mdp_mod
-from voiopt.plan import FleetPlan, Plan
+from voiopt.mdp import robot as mdp_mod
 
 
 class VoIParallelEnv(ParallelEnv):

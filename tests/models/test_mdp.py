@@ -7,11 +7,11 @@ import pytest
 from conftest import tiny_instances
 
 import voiopt
-from voiopt import lattice
+from voiopt.core.plan import Plan
+from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
-from voiopt.models import mdp
-from voiopt.plan import Plan
-from voiopt.simulate import simulate
+from voiopt.grid import lattice
+from voiopt.mdp import robot as mdp
 
 
 def _random_walk(model, rng, steps):

@@ -9,13 +9,15 @@ from conftest import solve_model_file, tiny_instances
 from oracles.bruteforce import brute_force
 
 import voiopt
-from voiopt import lattice
+from voiopt.core.plan import Plan
+from voiopt.core.simulate import simulate_indices
 from voiopt.errors import OptionError
-from voiopt.models import milp
-from voiopt.models.milp.solution import clean_schedule
+from voiopt.grid import lattice
 from voiopt.objectives import better
-from voiopt.plan import Plan
-from voiopt.simulate import simulate_indices
+from voiopt.solvers.milp import export as milp_export
+from voiopt.solvers.milp import formulation as milp_formulation
+from voiopt.solvers.milp import uploads as milp_uploads
+from voiopt.solvers.milp.solution import clean_schedule
 
 
 def random_plan(inst, rng):
@@ -46,7 +48,7 @@ def solve_highs(model):
 def test_variables_only_where_they_can_be_one():
     inst = voiopt.generate(3, 8, seed=3)
     lat = lattice.build(inst)
-    st = milp.structure(inst, "voi")
+    st = milp_uploads.structure(inst, "voi")
     for t in range(inst.horizon):
         assert ((st.x_col[t] >= 0) == lat.reachable(t)).all()
     assert lat.in_range[st.up_sensor, st.up_point].all()
@@ -61,7 +63,7 @@ def test_variables_only_where_they_can_be_one():
 def test_plan_columns_are_feasible_and_score_the_simulated_value(objective):
     rng = np.random.default_rng(0)
     for inst in tiny_instances(8, seed=99):
-        model = milp.build(inst, objective)
+        model = milp_formulation.build(inst, objective)
         for _ in range(5):
             idx, sched = random_plan(inst, rng)
             col = model.solution_from_plan(idx, sched)
@@ -83,7 +85,7 @@ def test_single_milp_agrees_with_brute_force(objective):
     """The one-MILP form of the min/max objectives (what export writes) is exact too."""
     for inst in tiny_instances(8, seed=7):
         best, _ = brute_force(inst, objective)
-        model = milp.build(inst, objective)
+        model = milp_formulation.build(inst, objective)
         h = solve_highs(model)
         idx, sched = model.plan_from_solution(np.asarray(h.getSolution().col_value))
         value = voiopt.evaluate(inst, Plan.from_indices(inst, idx, sched))[objective]
@@ -96,7 +98,7 @@ def test_export_reads_back_with_the_same_optimum(tmp_path, suffix, objective):
     inst = tiny_instances(6, seed=5)[5]
     best, _ = brute_force(inst, objective)
     path = tmp_path / f"model{suffix}"
-    milp.export(inst, objective, path)
+    milp_export.export(inst, objective, path)
     h = solve_model_file(path)
     assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
     assert h.getInfo().objective_function_value == pytest.approx(best, rel=1e-6)
@@ -105,16 +107,16 @@ def test_export_reads_back_with_the_same_optimum(tmp_path, suffix, objective):
 def test_export_rejects_unknown_format(tmp_path):
     inst = tiny_instances(1)[0]
     with pytest.raises(OptionError, match="use .mps or .lp"):
-        milp.export(inst, "min-voi", tmp_path / "model.xyz")
+        milp_export.export(inst, "min-voi", tmp_path / "model.xyz")
     assert not (tmp_path / "model.xyz").exists()
 
 
 def test_covering_is_none_when_unreachable():
     inst = tiny_instances(1)[0]
-    st = milp.structure(inst, "voi")
+    st = milp_uploads.structure(inst, "voi")
     top = st.best_worth()[1:].min()
-    assert milp.build_covering(inst, "min-voi", float(np.nextafter(st.candidates().max(), np.inf))) is None
-    assert milp.build_covering(inst, "min-voi", float(top)) is not None
+    assert milp_formulation.build_covering(inst, "min-voi", float(np.nextafter(st.candidates().max(), np.inf))) is None
+    assert milp_formulation.build_covering(inst, "min-voi", float(top)) is not None
 
 
 def test_the_cap_on_a_slots_least_worth_holds_for_every_legal_plan():
@@ -129,8 +131,8 @@ def test_the_cap_on_a_slots_least_worth_holds_for_every_legal_plan():
     from conftest import fleet_instances
     from oracles import model_oracle as oracle
 
-    from voiopt.instance import from_dict
-    from voiopt.models.uploads import structure
+    from voiopt.core.instance import from_dict
+    from voiopt.solvers.milp.uploads import structure
 
     extreme = json.loads((Path(__file__).resolve().parents[1] / "data" / "milp_extreme_worths.json").read_text())
     nets = [*tiny_instances(12), *fleet_instances(6), *map(from_dict, extreme)]

@@ -8,11 +8,11 @@ from conftest import tiny_instances
 from oracles.bruteforce import brute_force
 
 import voiopt
-from voiopt.plan import Plan
-from voiopt.solvers.milp import TOLERANCES, solve
+from voiopt.core.plan import Plan
+from voiopt.solvers.milp.solver import TOLERANCES, solve
 
 pyo = pytest.importorskip("pyomo.environ")
-from voiopt.models import pyomo_model  # noqa: E402
+from voiopt.solvers.milp import pyomo as pyomo_model  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -12,11 +12,11 @@ from conftest import tiny_instances
 from oracles.bruteforce import brute_force
 
 import voiopt
-from voiopt import lattice
+from voiopt.core.instance import from_dict
+from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError
-from voiopt.instance import from_dict
-from voiopt.simulate import simulate
-from voiopt.solvers.baselines import greedy, shortest_path
+from voiopt.grid import lattice
+from voiopt.solvers.baselines.heuristics import greedy, shortest_path
 
 
 def _closed_walk_bfs(inst) -> int:
@@ -118,8 +118,8 @@ def test_the_tour_s_point_choice_is_the_plain_dp_with_its_ties():
     import itertools
     import random
 
-    from voiopt import lattice as lattice_mod
-    from voiopt.solvers import baselines
+    from voiopt.grid import lattice as lattice_mod
+    from voiopt.solvers.baselines import heuristics as baselines
 
     rng = random.Random(5)
     for seed in range(30):
@@ -146,7 +146,7 @@ def test_greedy_and_shortest_path_show_progress(monkeypatch):
     bar counts slots, shortest-path's the sensors its nearest-neighbour tour has placed."""
     import contextlib
 
-    from voiopt.solvers import baselines
+    from voiopt.solvers.baselines import heuristics as baselines
 
     seen = []
 

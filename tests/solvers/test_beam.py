@@ -10,7 +10,7 @@ from oracles.bruteforce import brute_force
 import voiopt
 from voiopt.errors import OptionError
 from voiopt.objectives import OBJECTIVES, better
-from voiopt.solvers import beam
+from voiopt.solvers.dp import beam
 
 
 @pytest.mark.parametrize("objective", list(OBJECTIVES))

@@ -11,11 +11,12 @@ from conftest import tiny_instances
 from oracles.bruteforce import brute_force
 
 import voiopt
+from voiopt.core.instance import from_dict
 from voiopt.errors import OptionError
-from voiopt.generate import case_study as case_study_instance
-from voiopt.instance import from_dict
+from voiopt.networks.generate import case_study as case_study_instance
 from voiopt.objectives import OBJECTIVES
-from voiopt.solvers import _dp_search, dp
+from voiopt.solvers.dp import search
+from voiopt.solvers.dp import solver as dp
 
 RTOL = 1e-6
 
@@ -110,7 +111,7 @@ def test_bad_limits_are_rejected(case_study):
         dp.solve(case_study, "min-voi", memory_limit=-1)
 
 
-HAVE_MILP = importlib.util.find_spec("voiopt.solvers.milp") is not None and importlib.util.find_spec("highspy")
+HAVE_MILP = importlib.util.find_spec("voiopt.solvers.milp.solver") is not None and importlib.util.find_spec("highspy")
 
 
 @pytest.mark.skipif(not HAVE_MILP, reason="the MILP solver is not in this tree")
@@ -134,10 +135,10 @@ def test_progress_shows_incumbent_bound_and_gap_in_the_objectives_units(objectiv
 
     tab = dp.build_tables(voiopt.generate(3, 8, seed=5), objective)
     best, layer = (100.0, [120.0, 90.0]) if objective == "mean-min-voi" else (10.0, [8.0, 9.0])
-    text = _dp_search._progress_bound(tab, tab.internal(best), tab.internal(np.array(layer)))
+    text = search._progress_bound(tab, tab.internal(best), tab.internal(np.array(layer)))
     bound = max(layer) if objective == "mean-min-voi" else min(layer)
     assert text == f"  best {best:.6g}  bound {bound:.6g}  gap {100 * abs(bound - best) / abs(bound):.3g} %"
-    assert _dp_search._progress_bound(tab, -np.inf, np.array(layer)) == ""
+    assert search._progress_bound(tab, -np.inf, np.array(layer)) == ""
 
 
 def test_threads_keep_every_label_plan_and_bound(monkeypatch):
@@ -154,7 +155,7 @@ def test_threads_keep_every_label_plan_and_bound(monkeypatch):
     assert one.plan == two.plan and one.value == two.value and one.bound == two.bound
     assert one.solver["passes"] == two.solver["passes"] and one.solver["labels"] == two.solver["labels"]
     assert [s["labels"] for s in one.solver["subsets"]] == [s["labels"] for s in two.solver["subsets"]]
-    monkeypatch.setattr(_dp_search, "CHUNK_WORK", 2000)  # its layers cut into many chunks, not left whole as small
+    monkeypatch.setattr(search, "CHUNK_WORK", 2000)  # its layers cut into many chunks, not left whole as small
     inst = voiopt.generate(6, 30, seed=5)  # a bounded pass from just below the optimum
     tab = dp.build_tables(inst, "mean-min-voi")
     tab.with_tour_bound()
@@ -172,13 +173,13 @@ def test_a_small_layer_is_not_cut_into_tiny_calls():
     labels) twice as slow on two threads: no call is cut below CHUNK_WORK / 16 pairs; a layer
     of more than CHUNK_WORK still gives each thread about four."""
     tiny = np.full(5, 1000)  # 5,000 (label, upload) pairs in all
-    assert _dp_search._chunks(tiny, 1) == _dp_search._chunks(tiny, 2) == [(0, 5)]
-    medium = _dp_search._chunks(np.full(30, 1000), 2)  # 30,000: calls of 6 points (6,000 pairs), not 8 of 3.75
+    assert search._chunks(tiny, 1) == search._chunks(tiny, 2) == [(0, 5)]
+    medium = search._chunks(np.full(30, 1000), 2)  # 30,000: calls of 6 points (6,000 pairs), not 8 of 3.75
     assert medium == [(0, 6), (6, 12), (12, 18), (18, 24), (24, 30)]
-    large = _dp_search._chunks(np.full(400, 1000), 2)
+    large = search._chunks(np.full(400, 1000), 2)
     assert len(large) == 8 and large[0][0] == 0 and large[-1][1] == 400
     assert all(hi == lo for (_, hi), (lo, _) in itertools.pairwise(large))
-    assert _dp_search._chunks(np.full(400, 1000), 1) == [(0, 100), (100, 200), (200, 300), (300, 400)]
+    assert search._chunks(np.full(400, 1000), 1) == [(0, 100), (100, 200), (200, 300), (300, 400)]
 
 
 def test_threads_stop_at_the_time_limit_and_are_checked():
@@ -231,12 +232,12 @@ def test_a_limit_stops_the_build_of_the_value_table_and_its_blocks_change_no_bit
     limit, in dp and in beam (a fuzz campaign). They are now computed a block at a time, the
     stop rule checked between blocks; stopped there, the robot heads for its end (or stays)
     without uploads. The blocks change no bit of W."""
-    from voiopt.solvers import _dp_shared, beam
+    from voiopt.solvers.dp import beam, tables
 
     inst = voiopt.generate(3, 40, seed=6, end="random")
-    whole = _dp_shared.build_tables(inst, "mean-min-voi").W
-    monkeypatch.setattr(_dp_shared, "VOI_BLOCK", 5)
-    assert np.array_equal(_dp_shared.build_tables(inst, "mean-min-voi").W, whole)
+    whole = tables.build_tables(inst, "mean-min-voi").W
+    monkeypatch.setattr(tables, "VOI_BLOCK", 5)
+    assert np.array_equal(tables.build_tables(inst, "mean-min-voi").W, whole)
     for solve in (dp.solve, beam.solve):
         r = solve(inst, "mean-min-voi", time_limit=1e-9)
         assert r.status == "time_limit" and all(u is None for u in r.plan.schedule)
@@ -246,18 +247,18 @@ def test_a_limit_stops_the_build_of_the_value_table_and_its_blocks_change_no_bit
 def test_the_value_table_checks_the_stop_rule_after_every_block(monkeypatch):
     """A block of W held 2^18 worths less a few, and the rule was checked once 2^18 had been
     counted: after every second block (at T = 1633 on a busy machine, 1.7 s for a 0.3 s limit)."""
-    from voiopt import physics
-    from voiopt.solvers import _dp_shared
-    from voiopt.stop import Stop
+    from voiopt.core import physics
+    from voiopt.runtime.stop import Stop
+    from voiopt.solvers.dp import tables
 
     inst = voiopt.generate(3, 40, seed=6, end="random")
-    monkeypatch.setattr(_dp_shared, "VOI_BLOCK", 1000)
+    monkeypatch.setattr(tables, "VOI_BLOCK", 1000)
     since, most = [0], [0]
     voi, check = physics.voi, Stop.check
     monkeypatch.setattr(physics, "voi", lambda *a: (since.__setitem__(0, since[0] + np.size(a[0])), voi(*a))[1])
     monkeypatch.setattr(Stop, "check", lambda self, *a: (most.__setitem__(0, max(most[0], since[0])),
                                                          since.__setitem__(0, 0), check(self, *a))[2])
-    _dp_shared.build_tables(inst, "mean-min-voi", Stop())
+    tables.build_tables(inst, "mean-min-voi", Stop())
     assert 0 < max(most[0], since[0]) <= 1000
 
 

@@ -15,15 +15,16 @@ from conftest import field_instances, oracle_optima, tiny_instances
 from oracles.bruteforce import brute_force
 
 import voiopt
-from voiopt import lattice
+from voiopt.grid import lattice
 from voiopt.objectives import OBJECTIVES
-from voiopt.solvers import _dp_core as core
-from voiopt.solvers import _dp_subsets, dp
-from voiopt.solvers._dp_shared import build_tables
 from voiopt.solvers.base import idle_plan
+from voiopt.solvers.dp import kernels as core
+from voiopt.solvers.dp import solver as dp
+from voiopt.solvers.dp import subsets
+from voiopt.solvers.dp.tables import build_tables
 
 RTOL = 1e-9
-EXACT = 1e-12  # the rounding of two sums of the same terms (_dp_subsets.reaches)
+EXACT = 1e-12  # the rounding of two sums of the same terms (subsets.reaches)
 
 
 def corridor_instances(count: int = 24, seed: int = 99) -> list[voiopt.Instance]:
@@ -109,11 +110,11 @@ def test_dp_proves_the_same_optima_with_and_without_the_tour_bound():
 
 
 def test_the_subsets_run_past_their_share_only_when_the_next_is_predicted_to_fit_or_leaves_many_out():
-    """_dp_subsets.until(spent, budget, cap, times, left_out, far): the share's budget; ``far``
+    """subsets.until(spent, budget, cap, times, left_out, far): the share's budget; ``far``
     when the next subset leaves LEFT_OUT sensors or more out; else the cap when the next subset,
     predicted from the last two (the last time times their ratio, at least 1), would finish
     within it."""
-    from voiopt.solvers._dp_subsets import LEFT_OUT, until
+    from voiopt.solvers.dp.subsets import LEFT_OUT, until
 
     assert until(5.0, 10.0, 20.0, [3.0]) == 10.0  # one subset solved: no trend to go by
     assert until(8.0, 10.0, 20.0, [1.0, 2.0]) == 20.0  # the next predicted at 4 s: ends at 12 <= 20
@@ -157,7 +158,7 @@ def test_dp_through_the_subsets_equals_the_brute_force(objective, monkeypatch):
     subsets (which may prove the optimum alone), then the bounded pass; the subsets run from 3
     sensors here (by default from MIN_SENSORS), for mean-min-voi alone: for the others they
     must stay off."""
-    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    monkeypatch.setattr(subsets, "MIN_SENSORS", 3)
     used = 0
     for inst in CASES:
         r = dp.solve(inst, objective, fast_budget=1)
@@ -179,7 +180,7 @@ def test_each_subset_solved_from_the_smaller_ones_is_the_brute_force_optimum_of_
     the brute force's optimum of its own network, and the whole network too. Without
     incumbents every subset runs its passes; with them (beams, greedy) a pass often starts from
     the optimum itself, where a pattern built at the incumbent must not serve a pass below it."""
-    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    monkeypatch.setattr(subsets, "MIN_SENSORS", 3)
     _without_cheap_incumbents(monkeypatch, not incumbents)
     near = checked = 0
     for k in range(10):  # 4 and 5 sensors: subsets of 2, 3 (and 4), each from the smaller ones
@@ -191,7 +192,7 @@ def test_each_subset_solved_from_the_smaller_ones_is_the_brute_force_optimum_of_
         assert r.bound >= opt - EXACT * abs(opt), (inst.name, r.bound, opt)
         smaller = np.inf  # the least bound of the smaller subsets
         for run in r.solver.get("subsets", []):
-            sub = _dp_subsets.restricted(inst, run["sensors"], f"{inst.name}-sub")
+            sub = subsets.restricted(inst, run["sensors"], f"{inst.name}-sub")
             best = _optimum(sub, "mean-min-voi")
             assert run["bound"] >= best - EXACT * abs(best), (inst.name, run)  # far finer than dp.NEAR
             if run["status"] == "optimal":
@@ -213,7 +214,7 @@ def test_without_a_time_limit_the_subsets_run_on_a_label_allowance_not_the_clock
     30 s pass between any two readings changes nothing (with a budget in seconds no subset ran).
     An allowance that runs out mid-subset stops it at the same point on every run, and the
     bounded pass then proves the brute force's optimum."""
-    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    monkeypatch.setattr(subsets, "MIN_SENSORS", 3)
     inst = voiopt.generate(5, 8, width=3.0, height=2.0, seed=907, name="clock")
 
     def path(r):
@@ -222,11 +223,11 @@ def test_without_a_time_limit_the_subsets_run_on_a_label_allowance_not_the_clock
 
     calm = dp.solve(inst, "mean-min-voi", fast_budget=1)
     clock = itertools.count(0.0, 30.0)
-    monkeypatch.setattr(_dp_subsets, "time", SimpleNamespace(perf_counter=lambda: next(clock)))
+    monkeypatch.setattr(subsets, "time", SimpleNamespace(perf_counter=lambda: next(clock)))
     busy = dp.solve(inst, "mean-min-voi", fast_budget=1)
     assert path(busy) == path(calm) and len(calm.solver["subsets"]) == 3
     first, second = (run["labels"] for run in calm.solver["subsets"][:2])
-    monkeypatch.setattr(_dp_subsets, "LABELS", first + second + 1)  # one label left for the third subset
+    monkeypatch.setattr(subsets, "LABELS", first + second + 1)  # one label left for the third subset
     cut, again = (dp.solve(inst, "mean-min-voi", fast_budget=1) for _ in range(2))
     assert path(cut) == path(again)
     assert [run["status"] for run in cut.solver["subsets"]] == ["optimal", "optimal", "time_limit"]
@@ -243,7 +244,7 @@ def test_the_subsets_certify_twelve_sensors_where_the_full_search_alone_does_not
     assert any(source.startswith("subset of") for source, _ in r.solver["incumbents"])
     assert r.value >= alone.value and r.bound <= alone.bound
     runs = r.solver["subsets"]  # each subset solved, one sensor more than the last, its labels counted
-    assert [len(run["sensors"]) for run in runs] == list(range(_dp_subsets.FIRST, _dp_subsets.FIRST + len(runs)))
+    assert [len(run["sensors"]) for run in runs] == list(range(subsets.FIRST, subsets.FIRST + len(runs)))
     assert all(set(a["sensors"]) < set(b["sensors"]) for a, b in zip(runs, runs[1:], strict=False))
     assert min(run["bound"] for run in runs) == pytest.approx(r.solver["subset_bound"], rel=1e-12)
     assert r.solver["labels"] == sum(p["labels"] for p in r.solver["passes"].values()) + sum(
@@ -274,8 +275,8 @@ def test_a_pattern_bound_is_at_least_the_optimum_along_an_optimal_plan(objective
     bounds somewhere, or this would not test it."""
     from itertools import combinations
 
-    from voiopt.solvers import _dp_pattern
-    from voiopt.stop import Stop
+    from voiopt.runtime.stop import Stop
+    from voiopt.solvers.dp import patterns
 
     stop, tighter, checked = Stop(), 0, 0
     for inst in [inst for inst in CASES if inst.n_sensors >= 2]:
@@ -289,7 +290,7 @@ def test_a_pattern_bound_is_at_least_the_optimum_along_an_optimal_plan(objective
         for z in (target - 1e-9 * max(abs(target), 1.0), target - 0.5 * abs(target) - 1.0):
             for m in range(1, inst.n_sensors):
                 for keep in combinations(range(inst.n_sensors), m):
-                    pattern, _ = _dp_pattern.build(inst, objective, list(keep), tab, z, stop, 1, dp.search,
+                    pattern, _ = patterns.build(inst, objective, list(keep), tab, z, stop, 1, dp.search,
                                                    lambda sub: dp._pattern_tables(sub, objective))
                     assert pattern is not None
                     for t, q, ranks, acc in labels[1:]:
@@ -305,7 +306,7 @@ def test_dp_through_the_pattern_databases_equals_the_brute_force(monkeypatch):
     """fast_budget=1 and the subsets from 3 sensors send every network of 3 or more down the
     path of large ones; patterns from 2 sensors make each of them build a pattern database for
     its bounded pass (first above the midpoint, then from the incumbent)."""
-    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    monkeypatch.setattr(subsets, "MIN_SENSORS", 3)
     monkeypatch.setattr(dp, "PATTERN_SENSORS", 2)
     built = 0
     for inst in CASES:
@@ -341,13 +342,13 @@ def test_the_whole_adds_a_subsets_own_pass_and_equals_the_brute_force(monkeypatc
     send small networks down that path. With ``above`` the whole starts from the idle plan and
     the subsets' plans are kept from it, so that its first pass runs at the midpoint above its
     incumbent, with the subset's pattern: it finds the optimum there or proves it lower."""
-    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    monkeypatch.setattr(subsets, "MIN_SENSORS", 3)
     _without_cheap_incumbents(monkeypatch)
     cases = CASES
     if above:
         monkeypatch.setattr(dp, "PATTERN_SENSORS", 2)
-        relax = _dp_subsets.relax
-        monkeypatch.setattr(_dp_subsets, "relax", lambda instance, objective, tab, stop, offer, *rest: relax(
+        relax = subsets.relax
+        monkeypatch.setattr(subsets, "relax", lambda instance, objective, tab, stop, offer, *rest: relax(
             instance, objective, tab, stop, lambda plan, source: None, *rest))
         cases = [voiopt.generate(4 + k % 2, 5 + k % 3, width=2.0 + k % 2, height=2.0, seed=700 + k, name=f"grow-{k}")
                  for k in range(16)]
@@ -371,7 +372,7 @@ def test_a_subsets_own_pass_drops_labels_from_the_wholes_bounded_passes(monkeypa
     (15 against 19). On networks this small the other bounds leave it little: it dropped labels
     on 1 of 150 random networks of 6 to 8 sensors; on n12-seed7-004 it is what proves the
     optimum in the minute (docs/dp.md)."""
-    monkeypatch.setattr(_dp_subsets, "MIN_SENSORS", 3)
+    monkeypatch.setattr(subsets, "MIN_SENSORS", 3)
     _without_cheap_incumbents(monkeypatch)
 
     def bounded_labels(r):
@@ -394,15 +395,15 @@ def test_a_subsets_own_pass_drops_labels_from_the_wholes_bounded_passes(monkeypa
 
 def test_a_patterns_futures_are_the_same_on_one_thread_or_several():
     """from_layers computes a slot's futures in parts on several threads: the same values."""
-    from voiopt.solvers import _dp_pattern
-    from voiopt.stop import Stop
+    from voiopt.runtime.stop import Stop
+    from voiopt.solvers.dp import patterns
 
     inst = voiopt.generate(12, 14, width=4.0, height=4.0, seed=31, name="futures")
     tab = dp._pattern_tables(inst, "mean-min-voi")
     layers: list = []
     out = dp.search(tab, -np.inf, record=layers)
     assert out.complete and max(len(x[1]) for x in layers) > 3 * 1024  # three parts in a slot
-    one, three = (_dp_pattern.from_layers(layers, tab, -np.inf, Stop(), threads) for threads in (1, 3))
+    one, three = (patterns.from_layers(layers, tab, -np.inf, Stop(), threads) for threads in (1, 3))
     assert all(np.array_equal(a, b) for a, b in zip(one.future, three.future, strict=True))
 
 
@@ -414,8 +415,8 @@ def test_a_patterns_first_match_at_a_point_is_its_least_future(max_moves):
     network (the pattern's pass runs at 70 % of the optimum, so some labels have no match),
     and for each again with every rank one lower (so that many have several); and the layers,
     put in that order in place, give the same futures again."""
-    from voiopt.solvers import _dp_pattern
-    from voiopt.stop import Stop
+    from voiopt.runtime.stop import Stop
+    from voiopt.solvers.dp import patterns
 
     inst = voiopt.generate(5, 8, width=2.0, height=2.0, seed=5, name="least", max_moves=max_moves)
     tab = dp._pattern_tables(inst, "mean-min-voi")
@@ -425,8 +426,8 @@ def test_a_patterns_first_match_at_a_point_is_its_least_future(max_moves):
     every: list = []
     assert dp.search(tab, z, record=kept, collapse=False).complete
     assert dp.search(tab, -np.inf, record=every, collapse=False).complete
-    pattern = _dp_pattern.from_layers(kept, tab, z, Stop())
-    again = _dp_pattern.from_layers(kept, tab, z, Stop())
+    pattern = patterns.from_layers(kept, tab, z, Stop())
+    again = patterns.from_layers(kept, tab, z, Stop())
     assert all(np.array_equal(a, b) for a, b in zip(pattern.future, again.future, strict=True))
     matched = unmatched = 0
     lowered = [(np.maximum(r - 1, 0).astype(r.dtype), a, lf, p, o) for r, a, lf, p, o in every]  # more matches
@@ -453,8 +454,8 @@ def test_a_pattern_bounds_a_label_only_through_kept_labels_of_its_ranks_and_move
     none. Two kept labels at point 1 with the same ranks: 1 move left and future 3, 5 moves left
     and future 10 (a point's labels in ascending order of future, as from_layers leaves them).
     (The moves-left lane is what a random network seldom exercises.)"""
-    from voiopt.solvers._dp_pattern import Pattern
-    from voiopt.stop import Stop
+    from voiopt.runtime.stop import Stop
+    from voiopt.solvers.dp.patterns import Pattern
 
     collapsed = 9
 
@@ -487,7 +488,7 @@ def _apart(T: int, max_moves: int | None, end: bool = True) -> voiopt.Instance:
         d["end"] = [2, 0]
     if max_moves is not None:
         d["max_moves"] = max_moves
-    return voiopt.instance.from_dict(d)
+    return voiopt.core.instance.from_dict(d)
 
 
 APART = [_apart(9, 6), _apart(9, 8), _apart(7, None), _apart(9, None), _apart(7, 5, end=False), _apart(6, 3)]
@@ -496,22 +497,22 @@ COVER_CASES = APART + field_instances(40, seed=4321) + CASES[-16:]
 
 @pytest.mark.parametrize("objective", list(OBJECTIVES))
 def test_the_cover_bound_is_at_least_the_optimum_and_binds_where_no_walk_reaches_every_sensor(objective):
-    """_dp_cover: where no walk within the slots and the budget covers a set of sensors, one of
+    """cover: where no walk within the slots and the budget covers a set of sensors, one of
     them keeps its held packet, and the optimum is at most the best such sensor's worth. Held
     to the oracle's optimum on networks with blocked points, ends and budgets; it must also
     be attained on the networks built for it, or this would test nothing."""
-    from voiopt.solvers import _dp_cover
+    from voiopt.solvers.dp import cover
 
     finite = attained = 0
     for inst in COVER_CASES:
         tab = build_tables(inst, objective)
-        b = _dp_cover.bound(inst, tab)
+        b = cover.bound(inst, tab)
         if not np.isfinite(b):
             continue
         finite += 1
         opt = tab.internal(_optimum(inst, objective))
         assert b >= opt - EXACT * abs(opt), (inst.name, b, opt)
-        attained += _dp_subsets.reaches(opt, b)
+        attained += subsets.reaches(opt, b)
     assert finite >= 4 and attained >= 2, (finite, attained)
 
 
@@ -521,7 +522,7 @@ def test_the_fewest_moves_to_cover_a_set_are_those_of_the_legal_plans():
     range of each of them."""
     from oracles import model_oracle as oracle
 
-    from voiopt.solvers import _dp_cover
+    from voiopt.solvers.dp import cover
 
     checked = 0
     for inst in APART + field_instances(24, seed=99):
@@ -530,7 +531,7 @@ def test_the_fewest_moves_to_cover_a_set_are_those_of_the_legal_plans():
         points = np.flatnonzero(lat.in_range.any(axis=0) & ~lat.blocked)
         if len(points) == 0:
             continue
-        walk = _dp_cover._fewest_moves(_dp_cover._Legs(lat, points, N), N)
+        walk = cover._fewest_moves(cover._Legs(lat, points, N), N)
         covered = set()
         for plan in oracle.legal_plans(inst.to_dict()):
             at = [lat.index(x, y) for x, y in plan["positions"]]
@@ -545,7 +546,7 @@ def test_dp_proves_the_factory_floors_aoi_optimum_by_the_cover_bound():
     """VoI-Lib's factory-n12-t100 floors: the closed walk past every sensor takes 90 moves, the
     budget is 80, so a sensor keeps its packet and the idle plan's ages are optimal. Without
     the cover bound dp left them at [59, 101] and [31.05, 51.5] in a minute."""
-    from voiopt.experiments import voilib
+    from voiopt.voilib import library as voilib
 
     inst = voilib.instances()["factory-n12-t100-000"]
     for objective, value in (("max-aoi", 101), ("mean-max-aoi", 51.5)):
@@ -557,13 +558,13 @@ def test_above_the_exact_programmes_reach_the_stranded_sensors_alone_still_bound
     """Over MAX_SENSORS the bound takes only the sets of one sensor (the stranded ones): still a
     true bound on the oracle's networks, and on a factory floor of 30 sensors whose budget of
     40 moves strands 12 it proves the AoI optimum at once (a minute's search left it at 35)."""
-    from voiopt.solvers import _dp_cover
+    from voiopt.solvers.dp import cover
 
-    monkeypatch.setattr(_dp_cover, "MAX_SENSORS", 0)
+    monkeypatch.setattr(cover, "MAX_SENSORS", 0)
     finite = 0
     for inst in COVER_CASES:
         tab = build_tables(inst, "max-aoi")
-        b = _dp_cover.bound(inst, tab)
+        b = cover.bound(inst, tab)
         if np.isfinite(b):
             finite += 1
             opt = tab.internal(_optimum(inst, "max-aoi"))

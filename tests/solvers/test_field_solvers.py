@@ -14,17 +14,17 @@ from conftest import field_instances, solve_model_file
 from oracles import model_oracle as oracle
 
 import voiopt
-from voiopt.models import mdp as mdp_mod
-from voiopt.models.milp import export
+from voiopt.core.plan import Plan
+from voiopt.core.result import OPTIMAL_RTOL
+from voiopt.mdp import robot as mdp_mod
 from voiopt.objectives import OBJECTIVES
-from voiopt.plan import Plan
-from voiopt.result import OPTIMAL_RTOL
-from voiopt.solvers import baselines
-from voiopt.solvers.qlearning._kernels import rollout, train
-from voiopt.solvers.qlearning._qtable import QTable
-from voiopt.solvers.qlearning._rng import seed_state
+from voiopt.runtime.stop import Stop
+from voiopt.solvers.baselines import heuristics as baselines
+from voiopt.solvers.milp.export import export
+from voiopt.solvers.qlearning.kernels import rollout, train
 from voiopt.solvers.qlearning.reference import reference_qlearning
-from voiopt.stop import Stop
+from voiopt.solvers.qlearning.rng import seed_state
+from voiopt.solvers.qlearning.table import QTable
 
 CASES = field_instances()
 RTOL = 1e-9
@@ -60,7 +60,7 @@ def test_milp_survives_a_presolve_fault_on_a_tight_budget(objective):
     """Found by a randomised review: with max_moves equal to the fewest moves to end, HiGHS
     1.16's presolve ended a covering problem of min-voi with a solve error (the model is
     feasible). The MILP solves again with presolve off and proves the optimum dp proves."""
-    inst = voiopt.instance.from_dict({
+    inst = voiopt.core.instance.from_dict({
         "name": "tight", "area": {"width": 2, "height": 3}, "horizon": 7, "start": [1, 2],
         "sensors": [{"position": [0.24, 2.57], "rho": 0.24, "initial_aoi": 2},
                     {"position": [1.53, 1.83], "rho": 0.27, "initial_aoi": 2},
@@ -83,7 +83,7 @@ def test_moves_field_holds_a_move_in_the_last_slot():
 def test_unservable_sensors_count_blocked_points():
     d = {"area": {"width": 2, "height": 2}, "horizon": 3, "start": [0, 0], "channel": {"d_th": 0.5},
          "sensors": [{"position": [1, 1], "rho": 0.5}, {"position": [2, 2], "rho": 0.5}], "blocked": [[1, 1]]}
-    assert voiopt.lattice.unservable_sensors(voiopt.instance.from_dict(d)) == [0]
+    assert voiopt.grid.lattice.unservable_sensors(voiopt.core.instance.from_dict(d)) == [0]
 
 
 @pytest.mark.parametrize("objective", ["mean-min-voi", "max-aoi"])

@@ -13,10 +13,10 @@ from conftest import SWAP_ONLY, fleet_instances, oracle_optima, stop_at_check, u
 from oracles import model_oracle as oracle
 
 import voiopt
-from voiopt import fields
-from voiopt.cli import main
-from voiopt.instance import from_dict
-from voiopt.solvers import fleet_baselines
+from voiopt.cli.main import main
+from voiopt.core.instance import from_dict
+from voiopt.networks import fields
+from voiopt.solvers.baselines import fleet as fleet_baselines
 
 CASES = fleet_instances()
 METHODS = ("shortest-path", "greedy")
@@ -157,10 +157,10 @@ def test_a_trapped_walker_falls_back_to_exact_legal_paths_and_never_claims_infea
 def test_the_loader_and_exact_legal_paths_agree_with_the_oracle():
     """On random tiny fleets of 2 to 4 robots with ends and budgets, the loader rejects exactly
     the fleets with no legal plan (the oracle finds none) wherever it builds its table of joint
-    points (voiopt.joint.decides), saying why in one line; for the others fleet_mdp.legal_paths
+    points (voiopt.grid.joint.decides), saying why in one line; for the others fleet_mdp.legal_paths
     walks a plan the oracle finds legal."""
-    from voiopt import joint
-    from voiopt.models import fleet_mdp
+    from voiopt.grid import joint
+    from voiopt.mdp import fleet as fleet_mdp
 
     rng = np.random.default_rng(8)
     seen = {"legal": 0, "rejected": 0, "no joint plan": 0, "undecided": 0}
@@ -194,7 +194,7 @@ def test_the_loader_and_exact_legal_paths_agree_with_the_oracle():
             continue
         assert exists, d
         paths = fleet_mdp.legal_paths(inst)
-        lat = voiopt.lattice.build(inst.robot(0))
+        lat = voiopt.grid.lattice.build(inst.robot(0))
         plan = {"robots": [{"positions": [lat.points[p].tolist() for p in paths[k]], "schedule": [None] * inst.horizon}
                            for k in range(K)]}
         oracle.simulate(d, plan)  # raises if any rule is broken

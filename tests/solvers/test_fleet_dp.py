@@ -20,9 +20,9 @@ from conftest import ROOT, fleet_instances, undecided
 from oracles import model_oracle as oracle
 
 import voiopt
+from voiopt.core.instance import from_dict
 from voiopt.errors import OptionError
-from voiopt.instance import from_dict
-from voiopt.solvers import fleet_dp
+from voiopt.solvers.dp import fleet as fleet_dp
 
 CASES = fleet_instances()
 OBJECTIVES = list(oracle.OBJECTIVES)

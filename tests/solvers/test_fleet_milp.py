@@ -13,14 +13,15 @@ from conftest import fleet_instances, sigint_after, solve_model_file, stop_at_ch
 from oracles import model_oracle as oracle
 
 import voiopt
-from voiopt.cli import main
+from voiopt.cli.main import main
+from voiopt.core.instance import from_dict
+from voiopt.core.plan import FleetPlan, Plan
+from voiopt.core.simulate import check_plan, simulate_indices
 from voiopt.errors import PlanError
-from voiopt.instance import from_dict
-from voiopt.models import milp as model_mod
-from voiopt.plan import FleetPlan, Plan
-from voiopt.simulate import check_plan, simulate_indices
 from voiopt.solvers import FLEET
-from voiopt.solvers.milp import solve
+from voiopt.solvers.milp import formulation as milp_formulation
+from voiopt.solvers.milp import model as milp_model
+from voiopt.solvers.milp.solver import solve
 
 CASES = fleet_instances()
 OBJECTIVES = list(voiopt.OBJECTIVES)
@@ -60,7 +61,7 @@ def test_agrees_with_the_oracle_on_every_fleet_case(objective, optima):
         assert voiopt.evaluate(inst, r.plan)[objective] == r.value
 
 
-def _without_rows(model: model_mod.Model, prefix: str) -> model_mod.Model:
+def _without_rows(model: milp_model.Model, prefix: str) -> milp_model.Model:
     """The model with the rows of one block dropped (a relaxation)."""
     keep = np.array([not n.startswith(prefix) for n in model.row_names()])
     model.matrix = model.matrix.tocsr()[keep].tocsc()
@@ -79,8 +80,8 @@ def test_the_rules_between_robots_bind(optima):
         for ob in OBJECTIVES:
             best, _ = optima[inst.name, ob]
             alone_differs += oracle.brute_force(d, ob)[0] != pytest.approx(best, rel=1e-9)
-            model = _without_rows(model_mod.build(inst, ob), "swap")
-            h = model_mod.new_highs()
+            model = _without_rows(milp_formulation.build(inst, ob), "swap")
+            h = milp_model.new_highs()
             h.silent()
             h.setOptionValue("mip_rel_gap", 0.0)
             h.passModel(model.to_highs_lp())
@@ -174,8 +175,8 @@ def test_three_robots_following_each_other_in_a_line():
 
 def test_one_robot_readers_of_the_model_refuse_a_fleet(tmp_path):
     from voiopt.errors import OptionError
-    from voiopt.models import pyomo_model
-    from voiopt.models.milp.solution_file import import_solution
+    from voiopt.solvers.milp import pyomo as pyomo_model
+    from voiopt.solvers.milp.solution_file import import_solution
 
     with pytest.raises(OptionError, match="2 robots"):
         pyomo_model.build(CASES[0], "min-voi")
@@ -208,11 +209,11 @@ def test_stopped_while_greedy_walks_milp_does_not_go_on_to_the_repair(monkeypatc
     its walk gave up, milp still went on to each robot's greedy and built the path model
     (3.35 to 3.9 s for a 1.81 s limit at T = 1881, four robots, a fuzz campaign). Now it stops
     there, with status time_limit (the limit that stopped it; issue 47: it said error), and no plan, saying why."""
-    from voiopt.solvers import fleet_baselines
+    from voiopt.solvers.baselines import fleet as fleet_baselines
 
     monkeypatch.setattr(fleet_baselines, "MAX_TRIES_STOPPED", -1)  # a stopped walk not home gives up
     monkeypatch.setattr(fleet_baselines, "_legal_paths", lambda *a: None)  # and has no exact fallback
-    monkeypatch.setattr(model_mod, "build_covering", lambda *a, **k: pytest.fail("the path model was built"))
+    monkeypatch.setattr(milp_formulation, "build_covering", lambda *a, **k: pytest.fail("the path model was built"))
     stop_at_check(monkeypatch, 12)
     d = {"name": "conflict", "area": {"width": 3, "height": 3}, "horizon": 12,  # each robot's greedy plan
          "robots": [{"start": [0, 0], "end": [2, 0]}, {"start": [1, 0], "end": [0, 0]},  # swaps with another's

@@ -15,13 +15,13 @@ from oracles import model_oracle as oracle
 
 import voiopt
 from voiopt import solvers
-from voiopt.cli import main
+from voiopt.cli.main import main
+from voiopt.core.instance import from_dict
+from voiopt.core.plan import FleetPlan
 from voiopt.errors import MemoryLimitError
-from voiopt.instance import from_dict
-from voiopt.models import fleet_mdp
-from voiopt.plan import FleetPlan
+from voiopt.mdp import fleet as fleet_mdp
 from voiopt.solvers import qlearning as ql
-from voiopt.solvers.qlearning import _fleet
+from voiopt.solvers.qlearning import fleet
 from voiopt.solvers.qlearning.reference import reference_fleet_qlearning
 
 CASES = fleet_instances()
@@ -30,9 +30,9 @@ CASES = fleet_instances()
 def _kernel(model, episodes, seed):
     table = ql.QTable(model, 0.0, 100 * 2**20, slots=16)  # tiny: growth and rehashing happen
     eps, rng = np.array([1.0]), np.array([ql.seed_state(seed)], dtype=np.uint64)
-    assert _fleet.train(model, table, episodes, eps, 1.0 / episodes, ql.BETA, ql.GAMMA, rng) == (episodes, True)
-    idx, sched = _fleet.rollout(model, table)
-    return _fleet.to_dict(model, table), idx.tolist(), sched.tolist()
+    assert fleet.train(model, table, episodes, eps, 1.0 / episodes, ql.BETA, ql.GAMMA, rng) == (episodes, True)
+    idx, sched = fleet.rollout(model, table)
+    return fleet.to_dict(model, table), idx.tolist(), sched.tolist()
 
 
 @pytest.mark.parametrize("reward,slot", [("voi", False), ("voi", True), ("aoi", False)])
@@ -158,10 +158,10 @@ def test_a_time_limit_stops_the_build_of_the_table_of_legal_joint_states(monkeyp
     fuzz campaign, 2026-12-02). The build now checks the stop rule; the plan is greedy's,
     stopped at once, legal and valued by the simulator, once: its second valuation took 2 s
     inside the limit at T = 60,590 (a fuzz campaign)."""
-    import voiopt.result
+    import voiopt.core.result
 
-    simulate, runs = voiopt.result.simulate, []
-    monkeypatch.setattr(voiopt.result, "simulate", lambda *a, **k: runs.append(1) or simulate(*a, **k))
+    simulate, runs = voiopt.core.result.simulate, []
+    monkeypatch.setattr(voiopt.core.result, "simulate", lambda *a, **k: runs.append(1) or simulate(*a, **k))
     inst = voiopt.generate_set(1, seed=1030, preset="factory", n_sensors=3, horizon=11, robots=2, max_moves=8)[0]
     r = voiopt.solve(inst, "qlearning", "mean-min-voi", time_limit=0.3, episodes=1000)
     assert len(runs) == 1

@@ -14,11 +14,11 @@ from conftest import tiny_instances
 from oracles.bruteforce import brute_force
 
 import voiopt
-from voiopt.cli import main
+from voiopt.cli.main import main
+from voiopt.core.instance import from_dict
+from voiopt.core.result import OPTIMAL_RTOL
 from voiopt.errors import PlanError
-from voiopt.instance import from_dict
-from voiopt.result import OPTIMAL_RTOL
-from voiopt.solvers.milp import solve
+from voiopt.solvers.milp.solver import solve
 
 TINY = tiny_instances(30)
 
@@ -150,18 +150,18 @@ def test_a_limit_stops_the_build_of_the_model_and_its_blocks_change_no_bit(monke
     1.5 s limit, and at T = 2680 it asked numpy for 80 GiB at once (a fuzz campaign). Both are
     now built a block at a time with the stop rule checked between blocks; stopped there, the
     plan is the warm start's, with no bound. The blocks change no bit."""
-    from voiopt.models import uploads
-    from voiopt.models.milp import model as model_arrays
+    from voiopt.solvers.milp import model as model_arrays
+    from voiopt.solvers.milp import uploads
 
     inst = voiopt.generate(3, 40, seed=6, end="random")
     whole = uploads.structure(inst, "voi")
-    built = voiopt.models.milp.build(inst, "mean-min-voi")
+    built = voiopt.solvers.milp.formulation.build(inst, "mean-min-voi")
     uploads._CACHE.clear()
     monkeypatch.setattr(uploads, "VOI_BLOCK", 5)
     monkeypatch.setattr(model_arrays, "PAIR_BLOCK", 7)
     again = uploads.structure(inst, "voi")
     assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(whole.level_worth, again.level_worth, strict=True))
-    rebuilt = voiopt.models.milp.build(inst, "mean-min-voi")
+    rebuilt = voiopt.solvers.milp.formulation.build(inst, "mean-min-voi")
     assert (rebuilt.matrix != built.matrix).nnz == 0 and np.array_equal(rebuilt.row_upper, built.row_upper)
     uploads._CACHE.clear()
     r = solve(inst, objective, time_limit=1e-9)
@@ -176,8 +176,8 @@ def test_the_candidate_worths_are_each_sensors_merged_and_a_stop_ends_them(kind,
     build of a sensor's levels 1.2 s, both past a 2.69 s limit with no look at the stop rule (a
     fuzz campaign). Now each sensor's are sorted first and merged, with the stop rule checked
     between sensors and between the steps of a sensor's levels: the same candidates."""
-    from voiopt.models import uploads
-    from voiopt.stop import Stop, Stopped
+    from voiopt.runtime.stop import Stop, Stopped
+    from voiopt.solvers.milp import uploads
 
     for seed in range(4):
         inst = voiopt.generate(4, 60, seed=seed, end="random" if seed % 2 else None)
@@ -198,9 +198,8 @@ def test_a_limit_stops_the_level_terms_of_a_long_horizon(monkeypatch):
     """level_terms costs numpy calls per slot (3 s at T = 2243 with 4 sensors, past a 2.44 s
     limit, found by a fuzz campaign): the stop rule is checked every STOP_SLOTS slots, and the
     checks change nothing when no stop comes."""
-    from voiopt.models import uploads
-    from voiopt.models.milp import formulation
-    from voiopt.stop import Stop, Stopped
+    from voiopt.runtime.stop import Stop, Stopped
+    from voiopt.solvers.milp import formulation, uploads
 
     inst = voiopt.generate(3, 40, seed=6, end="random")
     st = uploads.structure(inst, "aoi")

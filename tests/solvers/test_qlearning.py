@@ -10,9 +10,9 @@ from conftest import tiny_instances
 from oracles.bruteforce import brute_force
 
 import voiopt
+from voiopt.core.instance import from_dict
 from voiopt.errors import OptionError
-from voiopt.instance import from_dict
-from voiopt.models import mdp
+from voiopt.mdp import robot as mdp
 from voiopt.solvers import qlearning as ql
 from voiopt.solvers.qlearning.reference import reference_qlearning
 
@@ -171,10 +171,10 @@ def test_a_limit_stops_the_build_of_the_voi_table_and_its_blocks_change_no_bit(m
 def test_what_the_table_holds_stays_within_the_memory_limit(monkeypatch, limit):
     """Table, pool and the doubled table allocated ahead of a growth (QTable._prepare), together,
     after every growth and every preparation; and nothing allocated ahead is kept after training."""
-    from voiopt.solvers.qlearning import _qtable
+    from voiopt.solvers.qlearning import table
 
     held, prepared, tables = [], [], []
-    real_grow, real_prepare = _qtable.QTable.grow, _qtable.QTable._prepare
+    real_grow, real_prepare = table.QTable.grow, table.QTable._prepare
 
     def measure(table):
         tables.append(table)
@@ -191,8 +191,8 @@ def test_what_the_table_holds_stays_within_the_memory_limit(monkeypatch, limit):
         real_prepare(self)
         measure(self)
 
-    monkeypatch.setattr(_qtable.QTable, "grow", grow)
-    monkeypatch.setattr(_qtable.QTable, "_prepare", prepare)
+    monkeypatch.setattr(table.QTable, "grow", grow)
+    monkeypatch.setattr(table.QTable, "_prepare", prepare)
     r = ql.solve(voiopt.generate(4, 30, seed=0), episodes=200_000, memory_limit=limit)
     assert r.status == "memory_limit"
     assert any(prepared), "no table was allocated ahead: this would test nothing"
@@ -204,13 +204,13 @@ def test_an_interrupted_growth_leaves_no_filled_table_to_reuse(monkeypatch):
     """Ctrl-C arrives as the rehash into the table allocated ahead returns (a KeyboardInterrupt
     out of ql.train, as in a notebook); training on afterwards gives the table and plan of a run
     never interrupted, not one whose next growth rehashes into a filled table."""
-    from voiopt.solvers.qlearning import _qtable
+    from voiopt.solvers.qlearning import table
 
     model = mdp.build(voiopt.generate(3, 8, width=3, height=3, seed=11))
     episodes = 600  # on the broken code: a table with more keys than states (longer runs hang)
     plain = _kernel(model, episodes, seed=42)
 
-    real_rehash, real_prepare = _qtable._rehash, _qtable.QTable._prepare
+    real_rehash, real_prepare = table._rehash, table.QTable._prepare
     ahead, interrupts = [], []
 
     def prepare(self):
@@ -224,8 +224,8 @@ def test_an_interrupted_growth_leaves_no_filled_table_to_reuse(monkeypatch):
             interrupts.append(len(new))
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(_qtable.QTable, "_prepare", prepare)
-    monkeypatch.setattr(_qtable, "_rehash", rehash)
+    monkeypatch.setattr(table.QTable, "_prepare", prepare)
+    monkeypatch.setattr(table, "_rehash", rehash)
     table = ql.QTable(model, 0.0, 100 * 2**20, slots=16)
     eps, rng = np.array([1.0]), np.array([ql.seed_state(42)], dtype=np.uint64)
     done = 0

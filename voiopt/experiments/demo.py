@@ -16,14 +16,15 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from voiopt import instance, objectives
-from voiopt._files import safe_name
-from voiopt.generate import case_study, case_study_plan
+from voiopt import objectives
+from voiopt.core import instance
+from voiopt.core.result import Result
+from voiopt.networks.generate import case_study, case_study_plan
 from voiopt.objectives import DEFAULT as OBJECTIVE
 from voiopt.objectives import OBJECTIVES
-from voiopt.result import Result
+from voiopt.runtime.files import safe_name
+from voiopt.runtime.stop import Interrupted, watch
 from voiopt.solvers import RANDOMISED, solve
-from voiopt.stop import Interrupted, watch
 
 SEEDS = (0, 1, 2)
 RUNS = [  # (label, method, what it is, options)
@@ -109,7 +110,7 @@ def _report(inst, console: Console, out_dir: Path, results: list[tuple[str, Resu
         gap = objectives.gap(r.value, best_bound)
         times = sorted(x.runtime_s for x in runs)
         table.add_row(label, r.status, *(f"{r.metrics[m]:.6g}" for m in OBJECTIVES),
-                      "-" if gap is None else _pct(gap),
+                      "-" if gap is None else percent(gap),
                       f"{times[0]:.2f} s" if len(runs) == 1 else f"{times[0]:.2f}-{times[-1]:.2f} s")
     console.print(table)
     if best_bound:
@@ -122,14 +123,14 @@ def _report(inst, console: Console, out_dir: Path, results: list[tuple[str, Resu
             console.print(
                 f"The paper's Q-learning ({reading}), seeds {SEEDS[0]}-{SEEDS[-1]}: mean {statistics.fmean(r.value for r in runs):.6g} "
                 f"bit/s of a proven optimum of {best_bound:.6g} bit/s, a certified gap of "
-                f"{_pct(statistics.fmean(gaps))} on average (min {_pct(min(gaps))}, max {_pct(max(gaps))})."
+                f"{percent(statistics.fmean(gaps))} on average (min {percent(min(gaps))}, max {percent(max(gaps))})."
             )
     console.print("(times exclude numba's one-off compilation, recorded as solver.startup_s)", style="dim")
     console.print(f"results written to {out_dir}/ (plot one with: {command()} plot {out_dir}/{safe_name(inst.name)}__dp.json "
                   "-o dp.png)")
 
 
-def _pct(g: float) -> str:
+def percent(g: float) -> str:
     """A gap as the table and the closing lines show it: two decimals of a percent."""
     return f"{100 * g:.2f} %"
 

@@ -10,8 +10,10 @@ from pathlib import Path
 from typing import Any
 
 from voiopt import objectives
-from voiopt._files import atomic_write, check_output_dir, write_csv
+from voiopt.core.instance import Instance
+from voiopt.core.result import Result, load_result
 from voiopt.errors import InstanceError, MemoryLimitError, OptionError, PlanError, VoioptError
+from voiopt.experiments.plots import plot_gaps
 from voiopt.experiments.runner import (
     Task,
     check_manifest,
@@ -22,10 +24,8 @@ from voiopt.experiments.runner import (
     run_options,
     run_tasks,
 )
-from voiopt.instance import Instance
 from voiopt.objectives import check_objective
-from voiopt.plots import plot_gaps
-from voiopt.result import Result, load_result
+from voiopt.runtime.files import atomic_write, check_output_dir, write_csv
 from voiopt.solvers import RANDOMISED
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 

@@ -14,8 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from voiopt import instance as instance_mod
-from voiopt._files import atomic_write, check_output_dir, read_csv, safe_name, write_csv
+from voiopt.core import instance as instance_mod
+from voiopt.core.instance import Instance
+from voiopt.core.result import Result, load_result
+from voiopt.experiments.plots import SCHEMES, case_study_figures, plot_sweep
 from voiopt.experiments.runner import (
     check_manifest,
     count_option,
@@ -24,12 +26,10 @@ from voiopt.experiments.runner import (
     run_options,
     run_tasks,
 )
-from voiopt.generate import case_study, generate_set, write_set
-from voiopt.instance import Instance
+from voiopt.networks.generate import case_study, generate_set, write_set
 from voiopt.objectives import DEFAULT as OBJECTIVE
 from voiopt.objectives import OBJECTIVES
-from voiopt.plots import SCHEMES, case_study_figures, plot_sweep
-from voiopt.result import Result, load_result
+from voiopt.runtime.files import atomic_write, check_output_dir, read_csv, safe_name, write_csv
 from voiopt.solvers import RANDOMISED
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
@@ -246,8 +246,8 @@ def _robots_figure(insts, tasks, networks: int, seed: int, seeds: int, reward_un
     """Fig. 8: each method and the certified optimum against the number of robots. Per network
     the optimum's value is the best exact plan and its bound the tightest proven bound of dp
     and milp; a network is certified when they meet (relative 1e-6)."""
+    from voiopt.experiments.plots import plot_robots
     from voiopt.objectives import gap
-    from voiopt.plots import plot_robots
 
     rows = []
     for v in ROBOTS.values:

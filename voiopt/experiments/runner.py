@@ -24,8 +24,10 @@ from itertools import islice
 from pathlib import Path
 from typing import Any
 
-from voiopt import instance as instance_mod
-from voiopt._files import atomic_write, loads_json, read_json, safe_name, write_json_atomic
+from voiopt.core import instance as instance_mod
+from voiopt.core.instance import Instance
+from voiopt.core.plan import made_for
+from voiopt.core.result import Result, load_result
 from voiopt.errors import (
     MissingExtraError,
     OptionError,
@@ -36,14 +38,19 @@ from voiopt.errors import (
     check_stream_seeds,
     first_line,
 )
-from voiopt.instance import Instance
-from voiopt.models.mdp import check_reward_units
-from voiopt.plan import made_for
-from voiopt.progress import progress_bar
-from voiopt.result import Result, load_result
+from voiopt.mdp.robot import check_reward_units
+from voiopt.runtime.files import atomic_write, loads_json, read_json, safe_name, write_json_atomic
+from voiopt.runtime.progress import progress_bar
+from voiopt.runtime.stop import (
+    INTERRUPTED,
+    Interrupted,
+    last_signal,
+    pool_worker,
+    signals_seen,
+    watch,
+)
 from voiopt.solvers import METHODS, RANDOMISED, check_robots, solver_function
 from voiopt.solvers.base import check_limits
-from voiopt.stop import INTERRUPTED, Interrupted, last_signal, pool_worker, signals_seen, watch
 
 
 @dataclass(frozen=True)

@@ -11,22 +11,23 @@ import importlib
 import inspect
 from typing import Any
 
-from voiopt import instance as instance_mod
+from voiopt.core import instance as instance_mod
+from voiopt.core.instance import Instance
+from voiopt.core.result import Result
 from voiopt.errors import OptionError
-from voiopt.instance import Instance
 from voiopt.objectives import DEFAULT, check_objective
-from voiopt.result import Result
+from voiopt.solvers.base import DP_MAX_ROBOTS
 
 # method name -> (module, function); each function is
 #   solve(instance, objective, *, progress=False, <its own keyword options>) -> Result
 METHODS: dict[str, tuple[str, str]] = {
-    "milp": ("voiopt.solvers.milp", "solve"),
-    "dp": ("voiopt.solvers.dp", "solve"),
+    "milp": ("voiopt.solvers.milp.solver", "solve"),
+    "dp": ("voiopt.solvers.dp.solver", "solve"),
     "qlearning": ("voiopt.solvers.qlearning", "solve"),
     "aoi-qlearning": ("voiopt.solvers.qlearning", "solve_aoi"),
-    "shortest-path": ("voiopt.solvers.baselines", "shortest_path"),
-    "greedy": ("voiopt.solvers.baselines", "greedy"),
-    "beam": ("voiopt.solvers.beam", "solve"),
+    "shortest-path": ("voiopt.solvers.baselines.heuristics", "shortest_path"),
+    "greedy": ("voiopt.solvers.baselines.heuristics", "greedy"),
+    "beam": ("voiopt.solvers.dp.beam", "solve"),
 }
 
 # methods whose plan depends on the seed: a gap of theirs is reported over several seeds
@@ -49,9 +50,6 @@ def solver_function(method: str):
         raise OptionError(f"method: unknown method {method!r} (choose from {', '.join(METHODS)})")
     module, function = METHODS[method]
     return getattr(importlib.import_module(module), function)
-
-
-DP_MAX_ROBOTS = 2  # dp plans jointly for at most this many robots (fleet_dp.MAX_ROBOTS)
 
 
 def default_method(instance: Instance) -> str:

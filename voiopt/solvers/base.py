@@ -3,7 +3,7 @@ memory_limit in GB, seed, threads), the Incumbent, the best simulated plan so fa
 once-per-process warm-up of a solver's kernels.
 
 A solver is a function ``solve(instance, objective, *, progress=False, <options>) -> Result``
-registered in solvers/__init__.py. It stops by the rule of voiopt.stop and returns its
+registered in solvers/__init__.py. It stops by the rule of voiopt.runtime.stop and returns its
 incumbent; the Result's value is always the simulator's.
 """
 
@@ -15,14 +15,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-from voiopt import lattice as lattice_mod
 from voiopt import objectives
+from voiopt.core.instance import Instance
+from voiopt.core.plan import Plan
+from voiopt.core.simulate import simulate_indices
 from voiopt.errors import MemoryLimitError, OptionError
-from voiopt.instance import Instance
-from voiopt.plan import Plan
-from voiopt.simulate import simulate_indices
-from voiopt.stop import GB, starting
+from voiopt.grid import lattice as lattice_mod
+from voiopt.runtime.stop import GB, starting
 
+DP_MAX_ROBOTS = 2  # dp plans jointly for at most this many robots
 DEFAULT_MEMORY_GB = 4.0  # every method's memory limit unless told otherwise
 
 
@@ -108,11 +109,11 @@ def warm_up_once(family: str, load: Callable[[], object]) -> float:
     if family in _WARM:
         return 0.0
     _WARM.add(family)
-    from voiopt import _numba_start
+    from voiopt.runtime import numba_start
 
     t0 = time.perf_counter()
     with starting():  # a Ctrl-C now stops the solve that is starting, not only the warm-up's
-        _numba_start.start()
+        numba_start.start()
         load()
     return time.perf_counter() - t0
 

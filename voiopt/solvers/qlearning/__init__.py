@@ -9,9 +9,9 @@
   models/fleet_mdp.py; reference.reference_fleet_qlearning is its plain-Python statement.
 """
 
-from voiopt.solvers.qlearning._kernels import rollout, train
-from voiopt.solvers.qlearning._qtable import QTable
-from voiopt.solvers.qlearning._rng import seed_state
+from voiopt.solvers.qlearning.kernels import rollout, train
+from voiopt.solvers.qlearning.rng import seed_state
 from voiopt.solvers.qlearning.solver import BETA, EPISODES, GAMMA, solve, solve_aoi, warm_up
+from voiopt.solvers.qlearning.table import QTable
 
 __all__ = ["BETA", "EPISODES", "GAMMA", "QTable", "rollout", "seed_state", "solve", "solve_aoi", "train", "warm_up"]

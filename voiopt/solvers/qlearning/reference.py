@@ -1,7 +1,7 @@
 """Algorithm 1 in plain Python: the reference the compiled kernel must reproduce bit for bit.
 
 A dict keyed by state tuples holds one list of Q-values per state (its feasible actions, in the
-order of voiopt/models/mdp.py); random numbers are the same splitmix64 stream as the kernel's.
+order of voiopt/mdp/robot.py); random numbers are the same splitmix64 stream as the kernel's.
 Used by tests/solvers/test_qlearning.py and benchmarks/qlearning_speed.py: the readable
 statement of what the kernels compute. With an end or a budget (MODEL.md section 9), actions
 that leave no way to end are masked: exploration draws among the feasible ones, and the greedy
@@ -35,7 +35,7 @@ def first_max(q, allowed):
 
 def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75, gamma: float = 0.9,
                         q_init: float = 0.0):
-    """Run Algorithm 1 on an voiopt.models.mdp.MDP; return (Q dict, point indices, schedule)."""
+    """Run Algorithm 1 on an voiopt.mdp.robot.MDP; return (Q dict, point indices, schedule)."""
     rng = SplitMix64(seed)
     T = model.horizon
     Q: dict = {}
@@ -84,7 +84,7 @@ def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75,
 
 def reference_fleet_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75, gamma: float = 0.9,
                               q_init: float = 0.0):
-    """Algorithm 1 on a voiopt.models.fleet_mdp.FleetMDP (MODEL.md section 10): one list of
+    """Algorithm 1 on a voiopt.mdp.fleet.FleetMDP (MODEL.md section 10): one list of
     Q-values per joint state, one per joint action number; exploration draws among the legal
     joint actions, the greedy choice and the bootstrap range over them. Returns (Q dict,
     (K, T) point indices, (K, T) schedule), what the compiled _fleet.py must reproduce."""

@@ -8,8 +8,10 @@ import time
 
 import numpy as np
 
-from voiopt import joint
-from voiopt import lattice as lattice_mod
+from voiopt.core.instance import Instance
+from voiopt.core.plan import Plan
+from voiopt.core.result import Result
+from voiopt.core.simulate import simulate_indices
 from voiopt.errors import (
     MemoryLimitError,
     OptionError,
@@ -17,20 +19,18 @@ from voiopt.errors import (
     check_seed,
     check_stream_seeds,
 )
-from voiopt.instance import Instance
-from voiopt.models import fleet_mdp
-from voiopt.models import mdp as mdp_mod
+from voiopt.grid import joint
+from voiopt.grid import lattice as lattice_mod
+from voiopt.mdp import fleet as fleet_mdp
+from voiopt.mdp import robot as mdp_mod
 from voiopt.objectives import AOI_DEFAULT, DEFAULT, check_objective
-from voiopt.plan import Plan
-from voiopt.progress import progress_bar, text_column
-from voiopt.result import Result
-from voiopt.simulate import simulate_indices
+from voiopt.runtime.progress import progress_bar, text_column
+from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
 from voiopt.solvers import base
-from voiopt.solvers.qlearning import _fleet
-from voiopt.solvers.qlearning._kernels import rollout, train
-from voiopt.solvers.qlearning._qtable import QTable
-from voiopt.solvers.qlearning._rng import seed_state
-from voiopt.stop import MEMORY_LIMIT, Stopped, watch
+from voiopt.solvers.qlearning import fleet as fleet_kernels
+from voiopt.solvers.qlearning.kernels import rollout, train
+from voiopt.solvers.qlearning.rng import seed_state
+from voiopt.solvers.qlearning.table import QTable
 
 BETA, GAMMA, EPISODES = 0.75, 0.9, 1_000_000
 # steps (episodes x T) of the kernel's first call, and the fewest and most of any call; the stop
@@ -46,8 +46,8 @@ def warm_up(fleet: bool = False) -> float:
     are loaded: each costs start-up. The kernels' argument types do not depend on the instance."""
 
     def load():
-        from voiopt.generate import generate
-        from voiopt.instance import from_dict
+        from voiopt.core.instance import from_dict
+        from voiopt.networks.generate import generate
 
         tiny = generate(1, 2, width=1.0, height=1.0, seed=0, name="warm-up")
         if fleet:
@@ -55,8 +55,8 @@ def warm_up(fleet: bool = False) -> float:
             del tiny["start"]
             model = fleet_mdp.build(from_dict({**tiny, "robots": [{"start": [0, 0]}, {"start": [1, 1], "end": [1, 0]}]}))
             table = QTable(model, 0.0, 64 * 2**20, slots=16)
-            _fleet.train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
-            _fleet.rollout(model, table)
+            fleet_kernels.train(model, table, 1, np.array([1.0]), 1.0, BETA, GAMMA, np.array([1], dtype=np.uint64))
+            fleet_kernels.rollout(model, table)
         else:
             model = mdp_mod.build(tiny)
             table = QTable(model, 0.0, 64 * 2**20)
@@ -90,7 +90,7 @@ def _require_fleet_memory(instance: Instance, memory_limit: float) -> None:
     """Refuse, in one line and before allocating, a fleet whose joint Q-table cannot be held:
     a joint row longer than a table row may be (16-bit greedy action), or the joint mask, the
     reward table and a first table with one episode's rows over ``memory_limit``."""
-    size = fleet_mdp.sizes(instance, _fleet.FLEET_SLOTS)
+    size = fleet_mdp.sizes(instance, fleet_kernels.FLEET_SLOTS)
     K, J, n = instance.n_robots, int(size["joint_actions"]), lattice_mod.n_points(instance)
     what = (f"{K} robots, up to {size['per_robot_actions']}^{K} = {J} joint actions a state, "
             f"{n}^{K} = {int(size['joint_points'])} joint points, T = {instance.horizon}")
@@ -117,7 +117,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
     method = METHOD_OF_REWARD[reward]
     if instance.fleet:
         _require_fleet_memory(instance, memory_limit)
-        build, slots, train_fn, rollout_fn = fleet_mdp.build, _fleet.FLEET_SLOTS, _fleet.train, _fleet.rollout
+        build, slots, train_fn, rollout_fn = fleet_mdp.build, fleet_kernels.FLEET_SLOTS, fleet_kernels.train, fleet_kernels.rollout
     else:
         base.require_memory(mdp_bytes(instance), memory_limit, "the MDP's tables")
         build, slots, train_fn, rollout_fn = mdp_mod.build, 1 << 15, train, rollout
@@ -132,7 +132,7 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
             return Result.from_plan(instance, method, objective, None, status="infeasible", runtime_s=stop.elapsed(),
                                     solver={**settings, "episodes_run": 0, "note": str(e)})
         except Stopped:  # nothing learnt: the plan of a stopped heuristic (no uploads, robots heading home)
-            from voiopt.solvers.baselines import stopped_result
+            from voiopt.solvers.baselines.heuristics import stopped_result
 
             return stopped_result(instance, method, objective, stop, {**settings, "episodes_run": 0},
                                   "stopped while building the MDP's tables")

@@ -1,0 +1,187 @@
+"""Result: the result JSON of MODEL.md section 6, written atomically, read losslessly.
+
+``Result.from_plan`` is the only way solvers make a result: it simulates the plan, takes the
+value from the simulator, checks the bound against it and claims ``optimal`` only when they
+agree to a relative 1e-6.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from voiopt import objectives
+from voiopt.core.instance import Instance, show
+from voiopt.core.plan import Plan
+from voiopt.core.simulate import simulate
+from voiopt.errors import VoioptError
+from voiopt.objectives import TINY, check_objective
+from voiopt.runtime.files import read_json, write_json_atomic
+
+STATUSES = ("optimal", "feasible", "time_limit", "memory_limit", "interrupted", "infeasible", "error")
+STOPPED = ("time_limit", "memory_limit", "interrupted")  # stopped early: with a plan, or none yet (a fleet's milp)
+OPTIMAL_RTOL = 1e-6
+
+
+@dataclass
+class Result:
+    instance: str
+    method: str
+    objective: str
+    status: str
+    value: float | None
+    bound: float | None
+    gap: float | None
+    runtime_s: float
+    plan: Plan | None
+    metrics: dict[str, float] | None
+    solver: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_plan(
+        cls,
+        instance: Instance,
+        method: str,
+        objective: str,
+        plan: Plan | None,
+        *,
+        status: str,
+        bound: float | None = None,
+        runtime_s: float = 0.0,
+        solver: dict[str, Any] | None = None,
+    ) -> Result:
+        """Simulate ``plan`` and build the result; the value is the simulator's, never the solver's."""
+        check_objective(objective)
+        if status not in STATUSES:
+            raise ValueError(f"status: unknown status {status!r}")
+        solver = dict(solver or {})
+        if plan is None:
+            if status in ("optimal", "feasible"):
+                raise ValueError(f"status {status!r} needs a plan")
+            return cls(instance.name, method, objective, status, None, _clean(bound), None, runtime_s, None, None, solver)
+        metrics = simulate(instance, plan).metrics
+        value = metrics[objective]
+        if bound is not None:
+            bound = float(bound)
+            maximise = objectives.get(objective).maximise
+            violation = (value - bound) if maximise else (bound - value)
+            if violation > 0:
+                # A bound can never be worse than a feasible plan; within tolerance it is solver
+                # noise and the plan's value is itself the tightest valid bound.
+                if violation > OPTIMAL_RTOL * max(abs(bound), abs(value), TINY):
+                    raise RuntimeError(
+                        f"{method}: bound {bound!r} is worse than the simulated value {value!r} of its own plan"
+                    )
+                bound = value
+        gap = objectives.gap(value, bound)
+        if status == "optimal" and (gap is None or gap > OPTIMAL_RTOL):
+            solver.setdefault("note", "optimality not claimed: bound and simulated value differ")
+            status = "feasible"
+        return cls(instance.name, method, objective, status, value, bound, gap, float(runtime_s), plan, metrics, solver)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "instance": self.instance,
+            "method": self.method,
+            "objective": self.objective,
+            "status": self.status,
+            "value": self.value,
+            "bound": self.bound,
+            "gap": self.gap,
+            "runtime_s": self.runtime_s,
+            "plan": None if self.plan is None else self.plan.to_dict(),
+            "metrics": self.metrics,
+            "solver": _jsonable(self.solver),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Result:
+        if not isinstance(d, dict):
+            raise VoioptError(f"result: must be a JSON object, got {type(d).__name__}")
+        if "objective" not in d and "sensors" in d:
+            raise VoioptError("result: this is an instance, not a result (voiopt solve -o writes results)")
+        if d.get("status") not in STATUSES:  # a file's word is not taken: plot and evaluate show the status
+            raise VoioptError(f"result: status: must be one of {', '.join(STATUSES)}, got {show(d.get('status'))}")
+        try:
+            check_objective(d["objective"])
+            return cls(
+                d["instance"], d["method"], d["objective"], d["status"], d["value"], d["bound"],
+                d["gap"], d["runtime_s"], None if d["plan"] is None else Plan.from_dict(d["plan"]),
+                d["metrics"], d.get("solver", {}),
+            )
+        except (KeyError, TypeError) as e:
+            raise VoioptError(f"result: missing or malformed field {e}") from None
+
+    def save(self, path: str | os.PathLike) -> None:
+        write_json_atomic(path, self.to_dict())
+
+    def summary(self) -> str:
+        val = "-" if self.value is None else f"{self.value:.6g}"
+        bnd = "-" if self.bound is None else f"{self.bound:.6g}"
+        gap = objectives.show_gap(self.gap, 4)
+        startup = self.solver.get("startup_s") if isinstance(self.solver, dict) else None
+        compiled = f"; start-up {startup:.1f} s" if isinstance(startup, (int, float)) and startup >= 1 else ""
+        return (
+            f"{self.instance}  {self.method}  {self.objective}: {self.status}  "
+            f"value {val}  bound {bnd}  gap {gap}  ({self.runtime_s:.2f} s{compiled})"
+        )
+
+
+def load_result(path: str | os.PathLike) -> Result:
+    d = read_json(path, error=VoioptError)
+    try:
+        return Result.from_dict(d)
+    except VoioptError as e:  # name the file
+        raise VoioptError(f"{path}: {e}") from None
+
+
+STORED_RTOL = 1e-9  # a number stored in a file (a result's, a submission's) against its plan re-simulated
+
+
+def agrees(stored: Any, simulated: float) -> bool:
+    """Whether a number a file states for its plan is what the simulator gives: a finite number
+    within a relative STORED_RTOL of it (rounding only; the same simulator gives equal bits)."""
+    return (not isinstance(stored, bool) and isinstance(stored, (int, float)) and finite(stored)
+            and abs(stored - simulated) <= STORED_RTOL * max(abs(stored), abs(simulated), TINY))
+
+
+def disagreement(stored: Any, metrics: dict[str, float]) -> str | None:
+    """The first of a result file's stored metrics (a dict, or anything else: nothing stored)
+    that its plan, re-simulated, does not give, as "NAME S stored, V simulated"; None if all
+    agree. A plan re-simulated on another instance than it was solved on, or a file edited by
+    hand, shows here."""
+    if not isinstance(stored, dict):
+        return None
+    for name, v in metrics.items():
+        if name in stored and not agrees(stored[name], v):
+            return f"{name} {show(stored[name])} stored, {v!r} simulated"
+    return None
+
+
+def finite(x: float) -> bool:
+    """A finite float, also for a JSON integer too large for one (10**400: float() overflows)."""
+    try:
+        return math.isfinite(x)
+    except OverflowError:
+        return False
+
+
+def _clean(v: float | None) -> float | None:
+    return None if v is None else float(v)
+
+
+def _jsonable(obj: Any) -> Any:
+    """Solver details may hold numpy scalars; make them plain JSON, non-finite as strings."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return str(obj)
+    return obj

@@ -1,0 +1,1 @@
+"""The lattice of MODEL.md section 2 and its geometry: points and ranges (lattice), fewest moves around blocked points (paths), where starts, ends and obstacles may be (places), and the joint moves of a fleet (joint)."""

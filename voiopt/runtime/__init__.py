@@ -1,0 +1,1 @@
+"""What every layer uses: JSON in and atomic writes out (files), the one stop rule (stop), progress bars, numba's kernels and quick start (jit, numba_start), libm from compiled loops, and the checker that collects validation errors."""

@@ -1,0 +1,1 @@
+"""The exact label-setting dynamic programme (solver, search, kernels, tables, bounds, subsets, patterns, cover), its two-robot form (fleet, fleet_kernels) and the beam planner built on its kernels (beam)."""

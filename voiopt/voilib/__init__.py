@@ -1,0 +1,1 @@
+"""VoI-Lib, the certified benchmark library: instances, certificates and scoring (library)."""
