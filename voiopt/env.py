@@ -84,6 +84,15 @@ def as_integer(action: Any, must: str = "an integer", what: str = "action") -> i
     return int(whole)
 
 
+def action_in(action: Any, n: int, what: str = "action") -> int:
+    """An action of a space of ``n`` as an int: an integer (``as_integer``) in 0..n-1, else one
+    line naming ``what``. The Gymnasium env's check and the PettingZoo env's, one helper."""
+    a = as_integer(action, f"an integer in 0..{n - 1}", what)
+    if not 0 <= a < n:
+        raise OptionError(f"{what}: must be in 0..{n - 1}, got {a}")
+    return a
+
+
 def reset_options(options: Any) -> dict:
     """reset()'s options as a dict ({} for None); anything else is refused in one line."""
     if options is None:
@@ -242,9 +251,7 @@ class VoIEnv(gym.Env):
 
     def _check_action(self, action) -> int:
         """The action as an int; raises if it is outside the space or the episode has ended."""
-        a = as_integer(action, f"an integer in 0..{self.action_space.n - 1}")
-        if not 0 <= a < self.action_space.n:
-            raise OptionError(f"action: must be in 0..{self.action_space.n - 1}, got {action!r}")
+        a = action_in(action, self.action_space.n)
         if not self._started:
             raise OptionError("step: no episode has started: call reset() first")
         if self.t >= self.instance.horizon:
