@@ -150,9 +150,9 @@ def test_rgb_render_is_an_image(case_study):
     (dict(instance=str(ROOT / "instances" / "case-study.json"), sample={"n_sensors": 3}),
      "sample: draws the networks of an env without an instance; got instance= as well"),  # sample was ignored
     (dict(reward="aoi", reward_mode="normalised"), "with reward='aoi' use reward_mode='paper'"),
-    (dict(penalty=float("nan")), "penalty: must be a finite number, got nan"),
-    (dict(penalty=float("inf")), "penalty: must be a finite number, got inf"),
-    (dict(penalty="100"), "penalty: must be a finite number, got '100'"),
+    (dict(penalty=float("nan")), "penalty: must be a finite number >= 0, got nan"),
+    (dict(penalty=float("inf")), "penalty: must be a finite number >= 0, got inf"),
+    (dict(penalty="100"), "penalty: must be a finite number >= 0, got '100'"),
     (dict(observe_sensors="no"), "observe_sensors: must be True or False, got 'no'"),  # taken as true before
 ])
 def test_options_that_would_be_ignored_or_poison_the_rewards_are_refused(kwargs, message):

@@ -175,3 +175,24 @@ def test_actions_that_are_no_agents_choice_and_steps_outside_an_episode_are_refu
 def test_core_voiopt_does_not_import_pettingzoo():
     code = "import sys, voiopt, voiopt.env; assert 'pettingzoo' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_both_envs_check_an_action_with_one_helper(monkeypatch):
+    """The PettingZoo env's action check was a twin of the Gymnasium env's (issue 47): both now
+    call voiopt.env.action_in, and say the same of the same bad action."""
+    import voiopt.pz_env as pz
+
+    env = VoIParallelEnv(voiopt.load(ROOT / "instances" / "fleet.json"))
+    env.reset(seed=0)
+    n = env.action_space("robot_0").n
+    gym_env = voienv.VoIEnv(voiopt.load(ROOT / "instances" / "case-study.json"))
+    gym_env.reset(seed=0)
+    m = gym_env.action_space.n
+    with pytest.raises(OptionError, match=rf"^actions\['robot_0'\]: must be in 0..{n - 1}, got {n}$"):
+        env.step({"robot_0": np.array([n]), "robot_1": 0})
+    with pytest.raises(OptionError, match=rf"^action: must be in 0..{m - 1}, got {m}$"):  # the array's value, as above
+        gym_env.step(np.array([m]))
+    asked = []
+    monkeypatch.setattr(pz, "action_in", lambda a, k, what: asked.append(what) or voienv.action_in(a, k, what))
+    env.step({"robot_0": 0, "robot_1": 0})
+    assert asked == ["actions['robot_0']", "actions['robot_1']"]

@@ -102,7 +102,7 @@ def test_generated_fleets_with_ends_can_always_finish_together():
         voiopt.generate(3, 12, width=3.0, height=3.0, seed=86, robots=3, blocked_fraction=0.3, end="random")
 
 
-@pytest.mark.parametrize("make", [voiopt.networks.generate, fields.factory], ids=["generate", "factory"])
+@pytest.mark.parametrize("make", [voiopt.generate, fields.factory], ids=["generate", "factory"])
 def test_a_network_seed_is_an_integer_or_a_seed_sequence_named_by_its_entropy(make):
     by_sequence = make(seed=np.random.SeedSequence(5))
     assert "seed5" in by_sequence.name

@@ -15,7 +15,7 @@ import numpy as np
 from voiopt.runtime import jit
 from voiopt.solvers.dp import kernels
 
-PACKAGE = Path(jit.__file__).resolve().parent
+PACKAGE = Path(jit.__file__).resolve().parent.parent  # voiopt/, above runtime/
 
 RUN = """
 import sys
@@ -99,3 +99,38 @@ def test_prefetch_is_a_hint_that_changes_no_result():
 
     vector, matrix = np.arange(1000.0), np.arange(24, dtype=np.uint64).reshape(8, 3)
     assert total(vector, matrix) == vector.sum() + matrix.sum()
+
+
+PLAIN_CALLER = """
+from offsets import OFFSET
+from voiopt.runtime.jit import njit
+
+@njit(cache=True)
+def run(x):
+    return x + OFFSET
+"""
+
+
+def test_editing_only_a_plain_module_a_kernel_imports_recompiles_the_kernel(tmp_path):
+    """A kernel freezes the globals it reads: a constant imported from a module without kernels
+    (offsets.py, outside KERNEL_MODULES) is compiled in. The stamp covered only the kernel
+    modules, so editing offsets.py alone left the old constant in the cached machine code."""
+    run = RUN.replace('jit.KERNEL_MODULES = ("callee.py", "caller.py")', 'jit.KERNEL_MODULES = ("caller.py",)')
+    (tmp_path / "caller.py").write_text(textwrap.dedent(PLAIN_CALLER))
+    (tmp_path / "offsets.py").write_text("OFFSET = 1\n")
+
+    def value() -> str:
+        out = subprocess.run([sys.executable, "-c", run, str(tmp_path)], capture_output=True, text=True, check=True,
+                             timeout=300, env=_environ())
+        return out.stdout.splitlines()[-1]
+
+    assert value() == "2"
+    (tmp_path / "offsets.py").write_text("OFFSET = 5\n")  # caller.py is untouched
+    assert value() == "6"
+
+
+def test_the_stamp_covers_the_plain_modules_the_package_kernels_import():
+    names = jit.stamped()
+    assert set(jit.KERNEL_MODULES) <= set(names)
+    assert {"mdp/robot.py", "solvers/dp/tables.py", "grid/paths.py"} <= set(names)
+    assert all((PACKAGE / n).is_file() for n in names)

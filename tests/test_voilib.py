@@ -173,6 +173,9 @@ def test_bench_commands(capsys, tmp_path):
     code, _, _ = run(capsys, "bench", "export", "--out", str(tmp_path / "lib"))
     assert code == 0
     exported = json.loads((tmp_path / "lib" / "certificates.json").read_text())
+    for entry in exported["instances"].values():  # the shipped certificates, each with its provenance
+        for cert in entry["certificates"].values():
+            assert cert.pop("provenance")["proved_by"]["method"] == cert["bound_method"]
     assert exported == CERTS and len(list((tmp_path / "lib").glob("*.json"))) == len(LIB) + 1
     honest = tmp_path / "honest.json"
     honest.write_text(json.dumps(_submission("walls-n4-t30-000", "max-aoi", "shortest-path")))

@@ -52,7 +52,13 @@ except ImportError as e:  # pragma: no cover - depends on the installed extras
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import Instance
 from voiopt.core.plan import Plan
-from voiopt.envs.checks import SAMPLE, as_integer, check_normalisable, check_sample, reset_options
+from voiopt.envs.checks import (
+    SAMPLE,
+    action_in,
+    check_normalisable,
+    check_sample,
+    reset_options,
+)
 from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import robot as mdp_mod
 from voiopt.mdp.outcomes import Outcomes
@@ -202,9 +208,7 @@ class VoIEnv(gym.Env):
 
     def _check_action(self, action) -> int:
         """The action as an int; raises if it is outside the space or the episode has ended."""
-        a = as_integer(action, f"an integer in 0..{self.action_space.n - 1}")
-        if not 0 <= a < self.action_space.n:
-            raise OptionError(f"action: must be in 0..{self.action_space.n - 1}, got {action!r}")
+        a = action_in(action, self.action_space.n)
         if not self._started:
             raise OptionError("step: no episode has started: call reset() first")
         if self.t >= self.instance.horizon:

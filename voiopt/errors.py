@@ -17,6 +17,11 @@ class OptionError(VoioptError):
     """An unknown method or objective, or a bad solver option."""
 
 
+class InstanceWarning(UserWarning):
+    """An instance that is legal but likely a mistake (a sensor given twice): one line on the
+    command line's stderr."""
+
+
 class MemoryLimitError(OptionError):
     """The work would pass the memory limit before it has any plan to return."""
 

@@ -46,7 +46,7 @@ except ImportError as e:  # pragma: no cover - depends on the installed extras
 from voiopt.core.instance import Instance
 from voiopt.core.plan import FleetPlan, Plan
 from voiopt.env import VoIEnv
-from voiopt.envs.checks import as_integer, reset_options
+from voiopt.envs.checks import action_in, reset_options
 from voiopt.mdp import robot as mdp_mod
 
 
@@ -123,10 +123,7 @@ class VoIParallelEnv(ParallelEnv):
         out of range is refused (OptionError), not replaced as a conflict would be."""
         if agent not in actions:
             raise OptionError(f"actions: no action for {agent!r} (every agent acts in every slot)")
-        a = as_integer(actions[agent], f"an integer in 0..{self._n - 1}", what=f"actions[{agent!r}]")  # 0.7 is refused
-        if not 0 <= a < self._n:
-            raise OptionError(f"actions[{agent!r}]: must be in 0..{self._n - 1}, got {a}")
-        return a
+        return action_in(actions[agent], self._n, f"actions[{agent!r}]")  # 0.7 is refused
 
     # ------------------------------------------------------------------ PettingZoo API
 

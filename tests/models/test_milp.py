@@ -162,3 +162,17 @@ def test_the_cap_on_a_slots_least_worth_holds_for_every_legal_plan():
                 assert -max(aoi) <= caps["aoi"][t + 1], (inst.name, t + 1, trajs)
         checked += 1
     assert checked >= 15 and tighter >= 5, (checked, tighter)
+
+
+def test_the_least_worth_cap_is_computed_once_per_structure(monkeypatch):
+    """The model's scale, its level terms and the bisection each computed min_worth_cap again
+    (issue 47): now once per Structure, the same read-only array for every caller."""
+    inst = voiopt.generate(4, 20, seed=5)
+    st = milp_uploads.structure(inst, "voi")
+    calls = []
+    best = milp_uploads.Structure.best_worth
+    monkeypatch.setattr(milp_uploads.Structure, "best_worth", lambda self: calls.append(1) or best(self))
+    milp_formulation.default_scale(st, "mean-min-voi")
+    milp_formulation.level_terms(st, True)
+    first = st.min_worth_cap()
+    assert st.min_worth_cap() is first and not first.flags.writeable and len(calls) == 1

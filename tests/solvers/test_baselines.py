@@ -139,3 +139,30 @@ def test_the_tour_s_point_choice_is_the_plain_dp_with_its_ties():
             want = min(((c + steps[p][lat.start], ps) for p, (c, ps) in cost.items()), key=lambda x: x[0])
             got = baselines._best_points_for_order(order, cands, baselines._Moves(lat, cands), lat.start)
             assert (got[0], list(got[1])) == (float(want[0]), want[1]), (seed, order)
+
+
+def test_greedy_and_shortest_path_show_progress(monkeypatch):
+    """At 10,000 sensors greedy and shortest-path showed nothing for seconds (issue 47): greedy's
+    bar counts slots, shortest-path's the sensors its nearest-neighbour tour has placed."""
+    import contextlib
+
+    from voiopt.solvers.baselines import heuristics as baselines
+
+    seen = []
+
+    class Bar:
+        def add_task(self, label, **k):
+            seen.append((label, k.get("total")))
+            return label
+
+        def update(self, task, **k):
+            seen.append((task, k.get("completed"), k.get("total")))
+
+    monkeypatch.setattr(baselines, "progress_bar", lambda enabled: contextlib.nullcontext(Bar()))
+    monkeypatch.setattr(baselines, "HEURISTIC_TOUR_MAX_SENSORS", 0)  # the nearest-neighbour order, as above 200
+    inst = voiopt.generate(9, 12, seed=3)
+    voiopt.solve(inst, "greedy", progress=True)
+    assert seen[0] == ("greedy slots", 12) and [u[1] for u in seen[1:]] == list(range(1, 13))
+    seen.clear()
+    voiopt.solve(inst, "shortest-path", progress=True)
+    assert seen[0][0] == "shortest-path: the tour" and seen[-1][1:] == (seen[-1][2], seen[-1][2]) and len(seen) > 2

@@ -211,7 +211,7 @@ def test_stopped_while_greedy_walks_milp_does_not_go_on_to_the_repair(monkeypatc
     their repair by HiGHS on the path model. Greedy gets the time left; when it was stopped and
     its walk gave up, milp still went on to each robot's greedy and built the path model
     (3.35 to 3.9 s for a 1.81 s limit at T = 1881, four robots, a fuzz campaign). Now it stops
-    there, with status error, saying why."""
+    there, with status time_limit (the limit that stopped it; issue 47: it said error), and no plan, saying why."""
     from voiopt.solvers.baselines import fleet as fleet_baselines
 
     monkeypatch.setattr(fleet_baselines, "MAX_TRIES_STOPPED", -1)  # a stopped walk not home gives up
@@ -223,6 +223,6 @@ def test_stopped_while_greedy_walks_milp_does_not_go_on_to_the_repair(monkeypatc
                     {"start": [2, 0], "end": [1, 0]}],
          "sensors": [{"position": [1.5, 3], "rho": 0.3}]}
     r = solve(from_dict(d), "mean-min-voi")
-    assert r.status == "error" and r.plan is None, r.solver
+    assert r.status == "time_limit" and r.plan is None, r.solver
     assert r.solver["warm_start"].endswith("stopped before the repair")
     assert "greedy: the conflict-free walker gave up" in r.solver["note"]

@@ -29,12 +29,12 @@ def test_every_entry_is_a_solver_whose_keywords_are_its_options(method):
 
 def test_an_unknown_option_is_refused_naming_what_the_method_takes():
     inst = voiopt.generate(2, 4, width=2.0, height=2.0, seed=0)
-    with pytest.raises(OptionError, match=r"--beem \(beem= in Python\): not an option of method 'dp' \(it takes time_limit, memory_limit, warm_start, beam"):
+    with pytest.raises(OptionError, match=r"^beem: not an option of method 'dp' \(it takes time_limit, memory_limit, warm_start, beam"):
         voiopt.solve(inst, "dp", beem=3)
     with pytest.raises(OptionError, match="--time-limit: must be a number of seconds > 0"):
         options_class("greedy").of("greedy", {"time_limit": -1})
-    with pytest.raises(OptionError, match="it takes --time-limit, --memory-limit, --seed"):
-        options_class("shortest-path").of("shortest-path", {"nope": 1}, cli=True)
+    with pytest.raises(OptionError, match=r"it takes time_limit, memory_limit, seed\)$"):
+        options_class("shortest-path").of("shortest-path", {"nope": 1})
 
 
 def test_the_objective_travels_as_the_object():

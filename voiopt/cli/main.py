@@ -7,6 +7,7 @@ import gc
 import json
 import signal
 import sys
+import warnings
 from pathlib import Path
 
 from rich.console import Console
@@ -17,6 +18,8 @@ from voiopt.cli import lossy as cli_lossy
 from voiopt.cli import policy as cli_policy
 from voiopt.cli.arguments import Parser, at_least, count
 from voiopt.cli.bench import add_commands as add_bench_commands
+from voiopt.cli.output import one_line_warning, pipe_closed
+from voiopt.cli.validate import cmd_validate
 from voiopt.cli.view import add_commands as add_view_commands
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import show
@@ -33,6 +36,7 @@ from voiopt.runtime import numba_start
 from voiopt.runtime.files import check_output_dir, check_output_file, dumps_json, read_json
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import last_signal, sigterm_raises
+from voiopt.solvers import UnknownOption
 from voiopt.solvers.base import DEFAULT_MEMORY_GB
 
 out = Console(highlight=False, soft_wrap=True)
@@ -53,29 +57,6 @@ def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
 
 
 # ------------------------------------------------------------------------------- commands
-
-
-def cmd_validate(args) -> int:
-    bad = 0
-    for path in args.instances:
-        try:
-            inst = instance_mod.load(path)
-        except VoioptError as e:
-            lines = [f"{path}: {line}" for line in getattr(e, "all_errors", [])] or [str(e)]
-            for line in lines:
-                err.print(line, markup=False)
-            bad += 1
-            continue
-        never = lattice.unservable_sensors(inst)
-        note = f" ({inst.n_robots} robots)" if inst.fleet else ""
-        if never:
-            note += f" (warning: sensors {never} have no lattice point within d_th and can never upload)"
-        stranded = lattice.stranded_sensors(inst) if lattice.cheap(inst) else []
-        if stranded:
-            note += (f" (warning: sensors {stranded} are never uploaded by any legal plan: no point in their range "
-                     "can be reached and left for the end within the horizon and max_moves; their packets only age)")
-        out.print(f"{path}: ok{note}" if len(args.instances) > 1 else f"ok{note}", markup=False)
-    return 2 if bad else 0
 
 
 def _note_stranded(insts) -> None:
@@ -159,9 +140,13 @@ def cmd_generate(args) -> int:
     return 0
 
 
+SOLVE_FLAGS = ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units", "warm_start",
+               "verbose", *cli_policy.POLICY_OPTIONS)  # solve's flags, by the keyword each gives
+
+
 def _solve_options(args, inst) -> dict:
     opts = {}
-    for key in ("time_limit", "gap", "threads", "episodes", "seed", "memory_limit", "reward_units", *cli_policy.POLICY_OPTIONS):
+    for key in (*SOLVE_FLAGS[:7], *cli_policy.POLICY_OPTIONS):
         v = getattr(args, key, None)
         if v is not None:
             opts[key] = v
@@ -181,10 +166,18 @@ def _solve_options(args, inst) -> dict:
 
 
 def cmd_solve(args) -> int:
+    if args.quiet and args.verbose:
+        raise OptionError("--quiet, --verbose: give one or neither (--quiet prints nothing but errors)")
     if args.output is not None:  # before the work, not after it
         check_output_file(args.output, inputs=[("INSTANCE", args.instance), ("--warm-start", args.warm_start)])
     inst = instance_mod.load(args.instance)
-    result = cli_policy.save_policy(cli_policy.policy_path(args), voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst)))
+    try:
+        result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst))
+    except UnknownOption as e:  # the command line's flags, not Python's keywords
+        flag = {k: f"--{k.replace('_', '-')}" for k in (*SOLVE_FLAGS, e.key)}
+        raise OptionError(f"{flag[e.key]}: not an option of method {e.method!r} (on the command line it takes "
+                          f"{', '.join(flag[k] for k in e.takes if k in flag) or 'none of its options'})") from None
+    result = cli_policy.save_policy(cli_policy.policy_path(args), result)
     if args.output:
         result.save(args.output)
     if args.json:
@@ -201,7 +194,8 @@ def cmd_solve(args) -> int:
         err.print(f"voiopt: {result.solver.get('stopped', 'interrupted')}; the best plan so far is {kept}",
                   markup=False)
         return 128 + (last_signal() or signal.SIGINT)
-    return 0 if result.status != Status.ERROR else 1
+    nothing = result.plan is None and getattr(result, "policy", None) is None  # stopped before any plan
+    return 1 if result.status == Status.ERROR or nothing and Status(result.status).stopped else 0
 
 
 def cmd_export(args) -> int:
@@ -430,6 +424,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = None
+    warnings.showwarning = one_line_warning
     try:
         args = build_parser().parse_args(argv)
         with sigterm_raises():  # a SIGTERM ends any command with a line, as a Ctrl-C does
@@ -437,6 +432,8 @@ def main(argv: list[str] | None = None) -> int:
     except VoioptError as e:
         err.print(f"voiopt: error: {e}", markup=False)
         return 2
+    except BrokenPipeError:  # stdout's reader has gone (voiopt generate | head -1): nothing more to say
+        return pipe_closed()
     except (WorkerDied, OSError) as e:  # a worker killed; a disk full or gone after the checks
         err.print(f"voiopt: error: {e}", markup=False)
         return 1
@@ -464,6 +461,9 @@ def run() -> None:
         gc.disable()
     try:
         code = main()
+        sys.stdout.flush()  # a closed pipe shows here, not in the flush at exit
+    except BrokenPipeError:
+        code = pipe_closed()
     finally:
         gc.freeze()
     sys.exit(code)

@@ -30,11 +30,12 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from voiopt.errors import InstanceError, OptionError
+from voiopt.errors import InstanceError, InstanceWarning, OptionError
 from voiopt.grid.places import (  # noqa: F401  (the lattice's geometry and caps are also instance.py's names)
     LATTICE_TOL,
     MAX_LATTICE_POINTS,
@@ -60,6 +61,21 @@ MAX_DB = 3000.0  # |g0_db|, |noise_dbm_per_hz|
 MIN_LINEAR, MAX_LINEAR = 1e-300, 1e300  # B * N0, P * g0 and B * N0 * d^2 [W]; the SNR at any distance
 MAX_BANDWIDTH_HZ = 1e300
 MAX_NAME = 200
+
+
+def check_size(n_sensors: int, horizon: int, n_points: float, max_initial_aoi: int = 1) -> None:
+    """The sizes a generator is asked for, refused before anything is drawn when the instance
+    it would draw breaks a cap of this module (the generator's option names)."""
+    if n_sensors > MAX_SENSORS:
+        raise OptionError(f"sensors: must be at most {MAX_SENSORS} (the cap on sensors), got {n_sensors}")
+    if horizon > MAX_HORIZON:
+        raise OptionError(f"horizon: must be at most {MAX_HORIZON} (the cap on slots), got {horizon}")
+    if max_initial_aoi + horizon > MAX_AGE:
+        raise OptionError(f"initial-aoi: its largest, {max_initial_aoi}, plus the horizon {horizon} must be at most "
+                          f"{MAX_AGE} (the cap on ages)")
+    if n_sensors * n_points > MAX_SENSOR_POINTS:
+        raise OptionError(f"sensors: {n_sensors} sensors on {n_points:.0f} lattice points make more than "
+                          f"{MAX_SENSOR_POINTS} sensor-lattice point pairs (the cap of an instance)")
 
 
 @dataclass(frozen=True)
@@ -394,11 +410,25 @@ def from_dict(d: Any, source: str = "") -> Instance:
         check_together(ck, width, height, step, horizon, blocked, robots)
     if ck.errors:
         _raise(ck, source)
+    _warn_duplicates(sensors, source)
     fleet = tuple(Robot(*r) for _, r in robots)
     first = fleet[0]
     fleet = fleet if len(fleet) > 1 else ()
     return Instance(name, width, height, horizon, first.start, tuple(sensors), step, channel, blocked, first.end,
                     first.max_moves, fleet, links)
+
+
+def _warn_duplicates(sensors: list[Sensor], source: str) -> None:
+    """A sensor with the position and parameters of an earlier one is legal (two devices on one
+    machine) but more often a copy-paste: warn once, naming both."""
+    seen: dict[tuple, int] = {}
+    for i, s in enumerate(sensors):
+        j = seen.setdefault(dataclasses.astuple(s), i)
+        if j != i:
+            where = f"{source}: " if source else ""
+            warnings.warn(f"{where}sensors[{i}]: same position and parameters as sensors[{j}] (both are kept; "
+                          "is it a copy?)", InstanceWarning, stacklevel=3)
+            return
 
 
 def _raise(ck: _Checker, source: str) -> None:

@@ -36,6 +36,15 @@ def as_integer(action: Any, must: str = "an integer", what: str = "action") -> i
     return int(whole)
 
 
+def action_in(action: Any, n: int, what: str = "action") -> int:
+    """An action of a space of ``n`` as an int: an integer (``as_integer``) in 0..n-1, else one
+    line naming ``what``. The Gymnasium env's check and the PettingZoo env's, one helper."""
+    a = as_integer(action, f"an integer in 0..{n - 1}", what)
+    if not 0 <= a < n:
+        raise OptionError(f"{what}: must be in 0..{n - 1}, got {a}")
+    return a
+
+
 def reset_options(options: Any) -> dict:
     """reset()'s options as a dict ({} for None); anything else is refused in one line."""
     if options is None:

@@ -7,7 +7,10 @@ by side with each plan's proven gap to the optimum, and writes the results to ou
 
 from __future__ import annotations
 
+import os
+import shutil
 import statistics
+import sys
 from pathlib import Path
 
 from rich.console import Console
@@ -108,7 +111,7 @@ def _report(inst, console: Console, out_dir: Path, results: list[tuple[str, Resu
         gap = objectives.gap(r.value, best_bound)
         times = sorted(x.runtime_s for x in runs)
         table.add_row(label, r.status, *(f"{r.metrics[m]:.6g}" for m in OBJECTIVES),
-                      "-" if gap is None else f"{100 * gap:.2f} %",
+                      "-" if gap is None else percent(gap),
                       f"{times[0]:.2f} s" if len(runs) == 1 else f"{times[0]:.2f}-{times[-1]:.2f} s")
     console.print(table)
     if best_bound:
@@ -121,7 +124,24 @@ def _report(inst, console: Console, out_dir: Path, results: list[tuple[str, Resu
             console.print(
                 f"The paper's Q-learning ({reading}), seeds {SEEDS[0]}-{SEEDS[-1]}: mean {statistics.fmean(r.value for r in runs):.6g} "
                 f"bit/s of a proven optimum of {best_bound:.6g} bit/s, a certified gap of "
-                f"{100 * statistics.fmean(gaps):.1f} % on average (min {100 * min(gaps):.1f} %, max {100 * max(gaps):.1f} %)."
+                f"{percent(statistics.fmean(gaps))} on average (min {percent(min(gaps))}, max {percent(max(gaps))})."
             )
     console.print("(times exclude numba's one-off compilation, recorded as solver.startup_s)", style="dim")
-    console.print(f"results written to {out_dir}/ (plot one with: voiopt plot {out_dir}/{safe_name(inst.name)}__dp.json -o dp.png)")
+    console.print(f"results written to {out_dir}/ (plot one with: {command()} plot {out_dir}/{safe_name(inst.name)}__dp.json "
+                  "-o dp.png)")
+
+
+def percent(g: float) -> str:
+    """A gap as the table and the closing lines show it: two decimals of a percent."""
+    return f"{100 * g:.2f} %"
+
+
+def command() -> str:
+    """How to run voiopt again from this shell: ``voiopt`` if it is on PATH and is this one,
+    else this Python's ``-m voiopt`` (after ``make demo`` the command is in .venv/bin, not on PATH)."""
+    found = shutil.which("voiopt")
+    here = Path(sys.executable).parent / "voiopt"
+    if found is not None and Path(found).resolve() == here.resolve():
+        return "voiopt"
+    relative = os.path.relpath(sys.executable)
+    return f"{sys.executable if relative.startswith('..') else relative} -m voiopt"

@@ -12,6 +12,7 @@ from typing import Any
 from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.result import Result, load_result
+from voiopt.errors import InstanceError, MemoryLimitError, OptionError, PlanError, VoioptError
 from voiopt.experiments.plots import plot_gaps
 from voiopt.experiments.runner import (
     Task,
@@ -38,7 +39,12 @@ def cause(r: Result) -> str:
     """Why a run ended as it did, when it did not end normally: the solver's own words."""
     if r.status in NORMAL:
         return ""
-    return str(r.solver.get("error") or r.solver.get("stopped") or r.solver.get("note") or r.status)
+    why = str(r.solver.get("error") or r.solver.get("stopped") or r.solver.get("note") or r.status)
+    kind, _, message = why.partition(": ")  # a bad input's plain message: "OptionError: " says nothing to a reader
+    return message if message and kind in PLAIN else why
+
+
+PLAIN = {c.__name__ for c in (VoioptError, InstanceError, PlanError, OptionError, MemoryLimitError)}
 
 
 def plan_tasks(
@@ -133,7 +139,7 @@ def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instan
                      f"{reward_units}, idle penalty 100 (MODEL.md section 7).")
     lines += [
         "",
-        "| method | instances | seeds | runs | optimal | errors | not finished normally | mean gap | min gap | max gap | median gap | within 1 % | median runtime |",
+        "| method | instances | seeds | runs | proven optimal | errors | not finished normally | mean gap | min gap | max gap | median gap | within 1 % | median runtime |",
         "|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|",
     ]
     for s in summary:

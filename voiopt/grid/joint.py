@@ -279,3 +279,22 @@ def possible(nx: int, ny: int, blocked: tuple[int, ...], starts: tuple[int, ...]
     mask[list(blocked)] = True
     tab = table(paths.neighbors(nx, ny, mask), ends, max_moves, horizon)
     return bool(tab.row(0)[start_index(starts, nx * ny), 0])
+
+
+def pairs_possible(nx: int, ny: int, blocked: tuple[int, ...], starts: tuple[int, ...], ends: tuple[int, ...],
+                   max_moves: tuple[int | None, ...], horizon: int) -> bool | None:
+    """A fleet too large for ``possible``, asked two robots at a time: False when some pair has
+    no legal joint plan (a proof: the others only add rules), else None (undecided). Only pairs
+    ``decides`` admits are tabulated, and at most CELLS entries over all of them."""
+    spent = 0.0
+    for i, j in itertools.combinations(range(len(starts)), 2):
+        if ends[i] < 0 and ends[j] < 0:
+            continue
+        pair_moves = (max_moves[i], max_moves[j])
+        radix = budgets(pair_moves, horizon)[2]
+        spent += cells(nx * ny, 2, horizon, radix)
+        if spent > CELLS or not decides(nx * ny, 2, horizon, pair_moves):
+            return None
+        if possible(nx, ny, blocked, (starts[i], starts[j]), (ends[i], ends[j]), pair_moves, horizon) is False:
+            return False
+    return None

@@ -191,12 +191,24 @@ def _moves(k: int) -> str:
     return f"{k} move" if k == 1 else f"{k} moves"
 
 
+def joint_decided(width, height, step, horizon, blocked, robots) -> bool:
+    """Whether validation decided that the robots have a joint plan (``check_together`` accepted
+    it by the exact table, or no robot has an end); False where it passed undecided."""
+    if len(robots) < 2 or all(r.end is None for r in robots):
+        return True
+    from voiopt.grid import joint
+
+    nx, ny = lattice_shape(width, height, step)
+    return joint.decides(nx * ny, len(robots), horizon, tuple(r.max_moves for r in robots))
+
+
 def check_together(ck: Checker, width, height, step, horizon, blocked, robots) -> None:
     """Several robots that could each keep their rules alone can still have no joint plan
     (MODEL.md sections 9 and 10): two robots in a corridor cannot pass each other. Decided
     exactly by the table of joint points that can still finish (joint.possible) on fleets
-    small enough for it (joint.decides); larger ones pass, and milp, dp and Q-learning prove
-    it themselves (status ``infeasible``, docs/model.md)."""
+    small enough for it (joint.decides); on larger ones, a pair of robots with no joint plan
+    proves it (joint.pairs_possible); others pass, undecided (``voiopt validate`` says so), and
+    milp, dp and Q-learning prove it themselves (status ``infeasible``, docs/model.md)."""
     if len(robots) < 2 or all(r[1] is None for _, r in robots):
         return  # without an end every robot may stay at its own start
     from voiopt.grid import joint  # numba: only for a fleet with an end
@@ -205,7 +217,11 @@ def check_together(ck: Checker, width, height, step, horizon, blocked, robots) -
     blocked = tuple(sorted(point_index(b, step, ny) for b in blocked))
     starts = tuple(point_index(r[0], step, ny) for _, r in robots)
     ends = tuple(-1 if r[1] is None else point_index(r[1], step, ny) for _, r in robots)
-    if joint.possible(nx, ny, blocked, starts, ends, tuple(r[2] for _, r in robots), horizon) is False:
+    moves = tuple(r[2] for _, r in robots)
+    ok = joint.possible(nx, ny, blocked, starts, ends, moves, horizon)
+    if ok is None:  # too large to decide at once: two robots that cannot keep their rules together prove it
+        ok = joint.pairs_possible(nx, ny, blocked, starts, ends, moves, horizon)
+    if ok is False:
         rules = ", ".join(f"{path}: {show_xy(r[0])}" + ("" if r[1] is None else f" to {show_xy(r[1])}")
                           + ("" if r[2] is None else f", max_moves {r[2]}") for path, r in robots)
         budgets = " and max_moves" if any(r[2] is not None for _, r in robots) else ""

@@ -169,6 +169,21 @@ def pack(widths: list[int]) -> tuple[np.ndarray, np.ndarray, int]:
     return np.array(field_word, dtype=np.int64), np.array(field_shift, dtype=np.int64), word + 1
 
 
+MAX_RETURN = 1e300  # an episode's penalties stay below it: a return of -inf would end learning silently
+
+
+def check_penalty(penalty, horizon: int | None = None) -> None:
+    """The idle penalty: a finite number >= 0 (it is subtracted when nothing is uploaded), and
+    at most MAX_RETURN / T, so that an episode's return stays finite."""
+    if isinstance(penalty, bool) or not isinstance(penalty, (int, float, np.integer, np.floating)) or not math.isfinite(penalty):
+        raise OptionError(f"penalty: must be a finite number >= 0, got {penalty!r}")
+    if penalty < 0:
+        raise OptionError(f"penalty: must be >= 0 (it is subtracted in each slot without an upload), got {penalty!r}")
+    if horizon is not None and penalty * horizon > MAX_RETURN:
+        raise OptionError(f"penalty: must be at most {MAX_RETURN:g} / horizon ({horizon}) = {MAX_RETURN / horizon:.3g}, "
+                          f"so that an episode's return stays finite, got {penalty!r}")
+
+
 def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY,
           slot_in_state: bool = False, reward_units: str = "bit/s", stop=None) -> MDP:
     """The arrays of the MDP of ``instance`` with the VoI or AoI reward; voiopt.runtime.stop.Stopped if
@@ -176,8 +191,7 @@ def build(instance: Instance, reward: str = "voi", penalty: float = IDLE_PENALTY
     if reward not in REWARDS:
         raise OptionError(f"reward: must be 'voi' or 'aoi', got {reward!r}")
     check_reward_units(reward_units)
-    if isinstance(penalty, bool) or not isinstance(penalty, (int, float, np.integer, np.floating)) or not math.isfinite(penalty):
-        raise OptionError(f"penalty: must be a finite number, got {penalty!r}")
+    check_penalty(penalty, instance.horizon)
     lat = lattice_mod.build(instance)
     n, N, T = lat.n_points, instance.n_sensors, instance.horizon
     initial_aoi = np.array([s.initial_aoi for s in instance.sensors], dtype=np.int64)

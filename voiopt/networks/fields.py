@@ -21,6 +21,7 @@ from voiopt.core.instance import (
     Instance,
     Robot,
     Sensor,
+    check_size,
     lattice_shape,
     point_index,
 )
@@ -223,12 +224,13 @@ def factory(n_sensors: int | None = None, horizon: int = FACTORY_HORIZON, *, see
     on machines and shelves, each within d_th of an aisle point, rho ~ U(0.6, 0.99), T = 100 and
     a budget of 80 moves. With ``robots`` K > 1, the K robots start and end at the free points
     nearest the dock (MODEL.md section 10: no two share a point). ``links``: as ``generate``'s."""
-    rng, seed_label = seeded(seed)
     if n_sensors is not None and (isinstance(n_sensors, bool) or not isinstance(n_sensors, int) or n_sensors < 1):
         raise OptionError(f"sensors: must be an integer >= 1, got {n_sensors!r}")
     if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 1:
         raise OptionError(f"horizon: must be an integer >= 1, got {horizon!r}")
     check_options(0.0, None, max_moves, horizon)
+    check_size(FACTORY_SENSORS[1] if n_sensors is None else n_sensors, horizon, (int(FACTORY_SIZE) + 1) ** 2)
+    rng, seed_label = seeded(seed)  # after the checks: nothing drawn that would be refused
     channel = channel or Channel()
     size = int(FACTORY_SIZE)
     blocked = factory_blocked(size)

@@ -140,6 +140,10 @@ def _check(n_sensors, horizon, width, height, step, rho, power_w, initial_aoi, c
     if not nx * ny <= instance_mod.MAX_LATTICE_POINTS:  # before drawing a start among them
         raise OptionError(f"width, height, step: a {width:g} x {height:g} area with step {step:g} has more than "
                           f"{instance_mod.MAX_LATTICE_POINTS} lattice points (the cap of instance.py)")
+    if _pair(initial_aoi) and all(isinstance(a, int) for a in initial_aoi):
+        instance_mod.check_size(n_sensors, horizon, nx * ny, initial_aoi[1])  # before drawing what would be refused
+    else:
+        instance_mod.check_size(n_sensors, horizon, nx * ny)
     if not (_pair(rho) and 0 <= rho[0] <= rho[1] <= 1) or rho[0] == rho[1] in (0, 1):
         raise OptionError(f"rho: must be a range 0 <= lo <= hi <= 1 with points inside (0, 1), got {show(rho)}")
     if not (_pair(initial_aoi) and all(isinstance(a, int) for a in initial_aoi) and 1 <= initial_aoi[0] <= initial_aoi[1]):

@@ -133,7 +133,8 @@ def loads_json(text: str, error: type[Exception] = InstanceError, where: str = "
     try:
         return _decode(text)
     except json.JSONDecodeError as e:
-        raise error(f"{prefix}invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}") from None
+        # the phrase whole: "Unterminated string starting at" ends where the position begins
+        raise error(f"{prefix}invalid JSON: {e.msg.removesuffix(' at')} at line {e.lineno}, column {e.colno}") from None
     except RecursionError:
         raise error(f"{prefix}invalid JSON: nested too deeply") from None
     except ValueError as e:  # NaN / Infinity, a key given twice
@@ -156,7 +157,7 @@ def read_json(path: str | os.PathLike, error: type[Exception] = InstanceError) -
     if len(data) > MAX_JSON_BYTES:
         raise error(f"{name}: invalid JSON: larger than {MAX_JSON_BYTES} bytes (the limit of a voiopt JSON file)")
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8-sig")  # a byte order mark, as some editors write, is skipped
     except UnicodeDecodeError as e:
         raise error(f"{name}: cannot read: not UTF-8 text (byte {e.start})") from None
     return loads_json(text, error, name)
@@ -178,14 +179,25 @@ def atomic_write(path: str | os.PathLike, *, binary: bool = False, newline: str 
         fd = _descriptor(p)  # /dev/stdout and the like: the process's own descriptor, as a shell writes to it
         if fd is not None:
             sys.stdout.flush()
-        raw = os.dup(fd) if fd is not None else os.open(p, os.O_WRONLY | os.O_APPEND | getattr(os, "O_BINARY", 0))
-        with os.fdopen(raw, **mode) as f:
-            yield f
+        try:
+            raw = os.dup(fd) if fd is not None else os.open(p, os.O_WRONLY | os.O_APPEND | getattr(os, "O_BINARY", 0))
+            with os.fdopen(raw, **mode) as f:
+                yield f
+        except OSError as e:
+            raise named(e, p) from None
         return
     create = lambda tmp: os.fdopen(  # noqa: E731
         os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666), **mode)
     with _renamed_over(p, lambda token: f".{p.name}.{token}.tmp", create) as f, f:
         yield f
+
+
+def named(e: OSError, path: str | os.PathLike) -> OSError:
+    """An error of writing ``path`` that says which file: write() and close() name none (a full
+    disk said only "[Errno 28] No space left on device"). One that names a file is kept."""
+    if e.filename is not None or os.fspath(path) in str(e):
+        return e
+    return OSError(e.errno, f"cannot write {os.fspath(path)}: {e.strerror or e}")  # errno picks the subclass
 
 
 @contextmanager
@@ -208,6 +220,10 @@ def _renamed_over(p: Path, name, make=lambda tmp: tmp):
                     tmp = None
             yield made
             os.replace(tmp, p)
+        except OSError as e:  # a full disk: the error names the file, which writing and closing do not say
+            if tmp is not None:
+                tmp.unlink(missing_ok=True)
+            raise named(e, p) from None
         except BaseException:
             if tmp is not None:
                 tmp.unlink(missing_ok=True)

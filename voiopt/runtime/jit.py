@@ -7,14 +7,16 @@ kernels the probes of ``_qtable`` and the random stream of ``_rng``) would keep 
 machine code when only that other module changed, for instance after a ``git pull``, and give
 the old numbers without a word. So voiopt's kernel modules take ``njit`` from here: importing
 this module puts, ahead of numba's own cache locators, variants for the files of this package
-whose stamp is numba's and the digest of all of ``KERNEL_MODULES``. Editing any of them
-recompiles every kernel once (and so does editing this module, whose ``prefetch`` intrinsic is
+whose stamp is numba's and the digest of all of ``KERNEL_MODULES`` and of the package's
+modules they import (``stamped``: a kernel freezes the constants and functions it reads from
+them). Editing any of them recompiles every kernel once (and so does editing this module, whose ``prefetch`` intrinsic is
 compiled into kernels). Functions outside the package are cached as numba does by itself
 (and a user who sets ``NUMBA_CACHE_LOCATOR_CLASSES`` chooses the locators, this included).
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
 from pathlib import Path
 
@@ -43,14 +45,46 @@ _digests: dict[tuple, str] = {}
 
 
 def digest() -> str:
-    """SHA-256 of the kernel modules' names and contents (once per process and set of files)."""
+    """SHA-256 of the stamped modules' names and contents (once per process and set of files)."""
     key = (ROOT, KERNEL_MODULES)
     if key not in _digests:
         h = hashlib.sha256(Path(__file__).read_bytes())  # this module's intrinsics are compiled into kernels
-        for name in KERNEL_MODULES:
+        for name in stamped():
             h.update(name.encode() + b"\0" + (ROOT / name).read_bytes() + b"\0")
         _digests[key] = h.hexdigest()
     return _digests[key]
+
+
+def stamped() -> list[str]:
+    """The files the stamp covers: KERNEL_MODULES and every module of the package they import.
+    A kernel freezes the globals it reads when it is compiled, so a constant or a function a
+    kernel module imports from a plain module (``mdp.robot``'s, ``dp.tables``') is part of its
+    machine code too: editing that module must recompile it."""
+    names = list(KERNEL_MODULES)
+    for name in KERNEL_MODULES:
+        for node in ast.walk(ast.parse((ROOT / name).read_bytes())):
+            if isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                dotted = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                dotted = [a.name for a in node.names]
+            else:
+                continue
+            for d in dotted:
+                path = _file_of(d)
+                if path is not None and path not in names:
+                    names.append(path)
+    return names
+
+
+def _file_of(dotted: str) -> str | None:
+    """The file of a module of the package (relative to ROOT), or None for another's."""
+    parts = dotted.split(".")
+    if parts[0] == ROOT.name:
+        parts = parts[1:]
+    for rel in ("/".join(parts) + ".py", "/".join([*parts, "__init__.py"])):
+        if parts and (ROOT / rel).is_file():
+            return rel
+    return None
 
 
 @intrinsic

@@ -34,8 +34,9 @@ class Status(str, Enum):
 
     @property
     def has_plan(self) -> bool:
-        """A status that a result reaches only with a plan."""
-        return self in (Status.OPTIMAL, Status.FEASIBLE, *STOPPED)
+        """A status that a result reaches only with a plan (a stopped run may have none yet:
+        a fleet's milp stopped before its first plan)."""
+        return self in (Status.OPTIMAL, Status.FEASIBLE)
 
 
 STOPPED = frozenset({Status.TIME_LIMIT, Status.MEMORY_LIMIT, Status.INTERRUPTED})

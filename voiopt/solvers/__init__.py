@@ -19,7 +19,7 @@ from voiopt.errors import OptionError
 from voiopt.objectives import DEFAULT, Objective
 from voiopt.solvers import lossy_plans
 from voiopt.solvers.base import DP_MAX_ROBOTS
-from voiopt.solvers.options import Options
+from voiopt.solvers.options import Options, UnknownOption  # noqa: F401  (UnknownOption: the CLI rephrases it)
 
 
 @runtime_checkable

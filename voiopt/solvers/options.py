@@ -17,6 +17,15 @@ from voiopt.errors import OptionError
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
 
 
+class UnknownOption(OptionError):
+    """A keyword a method does not take; it lists the keywords it does (the command line
+    rephrases it with its own flags)."""
+
+    def __init__(self, key: str, method: str, takes: list[str]) -> None:
+        super().__init__(f"{key}: not an option of method {method!r} (it takes {', '.join(takes)})")
+        self.key, self.method, self.takes = key, method, takes
+
+
 @dataclass(frozen=True)
 class Options:
     progress: bool = False
@@ -31,16 +40,13 @@ class Options:
         return [f.name for f in fields(cls)]
 
     @classmethod
-    def of(cls, method: str, given: Mapping[str, Any], cli: bool = False) -> Options:
-        """The options of ``method`` from keywords; an unknown one is an OptionError that lists
-        what the method takes, as command-line flags where ``cli``, else as keywords."""
+    def of(cls, method: str, given: Mapping[str, Any]) -> Options:
+        """The options of ``method`` from keywords; an unknown one is an UnknownOption that lists
+        the keywords the method takes."""
         names = cls.names()
         for key in given:
             if key not in names:
-                takes = [n for n in names if n != "progress"]
-                shown = [f"--{n.replace('_', '-')}" for n in takes] if cli else takes
-                raise OptionError(f"--{key.replace('_', '-')} ({key}= in Python): not an option of method "
-                                  f"{method!r} (it takes {', '.join(shown)})")
+                raise UnknownOption(key, method, [n for n in names if n != "progress"])
         return cls(**given)
 
     @classmethod

@@ -6,7 +6,8 @@ simulated value, a proven bound, the status ("optimal" when they meet, else "bou
 optimum lies between value and bound), the methods that found the plan and proved the bound,
 the voiopt version and the instance's sha256. dp and the MILP certify every entry
 independently; where both prove optimality their values must agree, or certification fails.
-``certify`` is the only writer of the certificates (docs/voilib.md).
+``certify`` writes certificates into a folder the user names; ``voilib_certificates.merge`` is the
+only writer of the shipped ones, and never weakens a certificate (docs/voilib.md).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from voiopt.errors import OptionError, PlanError, VoioptError, first_line
 from voiopt.networks.generate import case_study, generate_set, write_set
 from voiopt.objectives import OBJECTIVES, best, better, gap, tightest
 from voiopt.runtime.files import (
+    atomic_write,
     check_output_dir,
     check_output_file,
     loads_json,
@@ -37,6 +39,8 @@ from voiopt.runtime.files import (
     write_json_atomic,
 )
 from voiopt.runtime.status import Status
+from voiopt.voilib import export as voilib_export
+from voiopt.voilib.certificates import make_provenance, provenance, today
 
 VERSION = "1.2"  # a certificate changes only with a new version of the library (1.1: the cover bound; 1.2: two threads)
 DATA = resources.files("voiopt") / "data" / "voilib"
@@ -181,16 +185,33 @@ def table_rows() -> list[dict[str, Any]]:
 
 
 def export(out_dir: str | os.PathLike, overwrite: bool = False) -> Path:
-    """The instances and certificates.json into ``out_dir`` (created). A file there that holds
-    another instance under a library instance's name (a copy someone edited) is not replaced
-    unless ``overwrite``: nothing is written then."""
+    """The instances, certificates.json (each certificate with its provenance), a README (the
+    certified values, the formats, how to score) and ``solutions/``, one submission per instance
+    and objective, into ``out_dir`` (created). A file there that holds another instance under a
+    library instance's name (a copy someone edited) is not replaced unless ``overwrite``:
+    nothing is written then."""
     out = check_output_dir(out_dir, "--out", parents=True)
     lib = list(instances().values())
+    certs = certificates()
+    solutions = {voilib_export.solution_name(safe_name(name), objective):
+                 voilib_export.solution(name, objective, entry["sha256"], cert)
+                 for name, entry in certs["instances"].items() for objective, cert in entry["certificates"].items()}
     if out.is_dir():  # before writing any: no file to write is a folder there
-        for name in [*(f"{safe_name(inst.name)}.json" for inst in lib), "certificates.json"]:
+        for name in [*(f"{safe_name(inst.name)}.json" for inst in lib), "certificates.json", "README.md"]:
             check_output_file(out / name, "--out")
+        if (out / "solutions").is_dir():
+            for name in solutions:
+                check_output_file(out / "solutions" / name, "--out")
     write_set(lib, out, overwrite=overwrite)
-    write_json_atomic(out / "certificates.json", certificates())
+    with_provenance = {**certs, "instances": {
+        name: {**entry, "certificates": {o: {**c, "provenance": provenance(c)} for o, c in entry["certificates"].items()}}
+        for name, entry in certs["instances"].items()}}
+    write_json_atomic(out / "certificates.json", with_provenance)
+    (out / "solutions").mkdir(exist_ok=True)
+    for name, doc in solutions.items():
+        write_json_atomic(out / "solutions" / name, doc)
+    with atomic_write(out / "README.md") as f:
+        f.write(voilib_export.readme(VERSION, table_rows()))
     return out
 
 
@@ -257,16 +278,26 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
                        "names the instance exactly)")
             else:
                 why = ""
-            raise OptionError(f"{source}: value: {stated!r} is not what its plan gives on VoI-Lib's {name} "
+            raise ClaimError(f"{source}: value: {stated!r} is not what its plan gives on VoI-Lib's {name} "
                               f"({value!r} by the simulator): rejected{why}")
     cert = certificates()["instances"].get(name, {}).get("certificates", {}).get(objective)
+    status = result.get("status")  # a result's own: an interrupted run's plan is scored, and says so
     row = {"result": row_source, "instance": name, "objective": objective, "value": value,
+           "status": status if isinstance(status, str) else None,
            "certified": show_certificate(cert), "certified_status": None, "certified_value": None,
            "certified_bound": None, "gap_to_bound": None, "gap_to_best": None}
     if cert is not None:
         row.update(certified_status=cert["status"], certified_value=cert["value"], certified_bound=cert["bound"],
                    gap_to_bound=gap(value, cert["bound"]), gap_to_best=behind(objective, value, cert["value"]))
     return row
+
+
+class ClaimError(OptionError):
+    """A submission's stated value is not what its plan gives (``bench check``: exit 4)."""
+
+
+class UnreadableError(OptionError):
+    """A submission file that cannot be read as JSON (``bench check``: exit 5)."""
 
 
 SUBMISSION_FIELDS = ("instance", "instance_sha256", "objective", "plan", "value")
@@ -303,13 +334,26 @@ def behind(objective: str, value: float, best_known: float) -> float:
     return -g if better(objective, value, best_known) else g
 
 
-def score_files(paths: list[str]) -> tuple[list[dict[str, Any]], list[VoioptError]]:
+def bare(plan: Any, name: str, objective: str) -> dict[str, Any]:
+    """A bare plan (``positions`` and ``schedule``, or a document with a ``plan``, such as a
+    result of another instance's name) as a submission for VoI-Lib's ``name`` and ``objective``."""
+    if isinstance(plan, dict) and "plan" in plan:
+        plan = plan["plan"]
+    return {"instance": name, "objective": objective, "plan": plan}
+
+
+def score_files(paths: list[str], instance: str | None = None,
+                objective: str | None = None) -> tuple[list[dict[str, Any]], list[VoioptError]]:
     """Score each file: (rows of the files scored, the error of each file rejected, naming the
-    file). One bad file among many does not stop the others being scored."""
+    file). One bad file among many does not stop the others being scored. With ``instance``
+    (a VoI-Lib name) and ``objective``, each file is a bare plan (``bare``)."""
+    if (instance is None) != (objective is None):
+        raise OptionError("--instance and --objective: give both (the files are bare plans), or neither")
     rows, errors = [], []
     for p in paths:
         try:
-            rows.append(score(read_json(p), str(p)))
+            doc = read_json(p, UnreadableError)
+            rows.append(score(doc if instance is None else bare(doc, instance, objective), str(p)))
         except VoioptError as e:
             message = str(e)
             errors.append(type(e)(message if message.startswith(f"{p}: ") else f"{p}: {message}"))
@@ -346,13 +390,14 @@ def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dic
     else:
         bound, bound_method = None, None
     status = "optimal" if proved else "bounded"  # a gap within tolerance is not a proof: bound == value
-    return {
+    cert = {
         "objective": objective, "status": status, "value": value, "bound": bound, "gap": gap(value, bound),
         "plan": top.plan.to_dict(), "method": top.method, "bound_method": bound_method,
         "checks": {r.method: {"status": r.status, "value": r.value, "bound": r.bound, "runtime_s": r.runtime_s}
                    for r in results},
         "voiopt_version": _version(), "instance_sha256": instance_hash(inst),
     }
+    return {**cert, "provenance": make_provenance(cert, today())}
 
 
 def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_limit: float | None = None,
@@ -361,8 +406,9 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     """Run dp and the MILP on every instance (or those named in ``only``) and objective
     (results kept in ``work_dir``, so an interrupted run resumes, on a process pool or Dask;
     a ``work_dir`` made with another time limit, memory limit or threads is refused)
-    and write certificates.json into ``into`` (default: the package's VoI-Lib folder, in a
-    source checkout). With ``only``, the other instances' entries of an existing
+    and write certificates.json into ``into`` (default: ``work_dir``; never the package's own
+    VoI-Lib folder unless named: ``voilib_certificates.merge`` is the step that updates the shipped
+    certificates, refusing to weaken them). With ``only``, the other instances' entries of an existing
     certificates.json there are kept (those whose instance is unchanged). ``threads`` is each
     run's: dp's chunks expanded at once and the MILP's HiGHS threads (``workers`` times
     ``threads`` cores in all)."""
@@ -387,7 +433,7 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
             raise OptionError(f"--only: {unknown[0]!r} is no VoI-Lib {VERSION} instance")
         lib = {n: every[n] for n in only}
     work = check_output_dir(work_dir, "--work", parents=True)
-    target = check_output_dir(into, "--into", parents=True) if into is not None else Path(str(DATA))
+    target = check_output_dir(into if into is not None else work_dir, "--into", parents=True)
     if target.is_dir():  # certificates.json can be written there (the package's own folder may be read-only)
         check_output_file(target / "certificates.json", "--into")
     work.mkdir(parents=True, exist_ok=True)

@@ -23,6 +23,7 @@ from voiopt.core.result import Result
 from voiopt.errors import check_seed
 from voiopt.grid import lattice as lattice_mod
 from voiopt.objectives import Worth
+from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stop, Stopped, halt_if_asked, watch
 from voiopt.solvers import options
@@ -154,10 +155,12 @@ def greedy(instance: Instance, objective: str, *, progress: bool = False, time_l
         if instance.fleet:
             slot = _Slot(instance, _is_aoi(objective))
             return fleet_baselines.greedy(instance, objective, stop, slot, _steps_to_sensor(instance))
-        return _greedy(instance, objective, stop)
+        with progress_bar(progress) as bar:  # a slot of 10,000 sensors takes seconds: the bar shows the clock
+            task = bar.add_task("greedy slots", total=instance.horizon)
+            return _greedy(instance, objective, stop, lambda t: bar.update(task, completed=t))
 
 
-def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
+def _greedy(instance: Instance, objective: str, stop: Stop, done=lambda t: None) -> Result:
     aoi_objective = _is_aoi(objective)
     slot = _Slot(instance, aoi_objective)
     lat = slot.lat
@@ -193,6 +196,7 @@ def _greedy(instance: Instance, objective: str, stop: Stop) -> Result:
         sched.append(u)
         used += p1 != p
         p = p1
+        done(t + 1)
     solver = {"rule": "aoi" if aoi_objective else "voi", "lookahead": 1}
     if stop.requested:
         then = "heading for end without uploads" if lat.end >= 0 else "staying idle"
@@ -286,9 +290,11 @@ class _ManhattanRow:
 HEURISTIC_TOUR_MAX_SENSORS = 200  # simulated annealing up to here; nearest neighbour above
 
 
-def _tour(instance: Instance, stop: Stop, seed: int, sensors: list[int] | None = None) -> tuple[list[int], dict]:
+def _tour(instance: Instance, stop: Stop, seed: int, sensors: list[int] | None = None,
+          placed=lambda k, n: None) -> tuple[list[int], dict]:
     """Waypoints (one in-range point per servable sensor, of ``sensors`` if given) of a shortest
-    closed walk from start. Stopped early, the sensors' index order is the tour."""
+    closed walk from start. Stopped early, the sensors' index order is the tour. ``placed(k, n)``
+    hears of the nearest-neighbour order's progress (k of n sensors)."""
     lat = lattice_mod.build(instance)
     start = lat.start
     reach = lat.from_start < lattice_mod.UNREACHABLE  # not walled off by blocked points
@@ -312,18 +318,19 @@ def _tour(instance: Instance, stop: Stop, seed: int, sensors: list[int] | None =
             order = _annealed_order(servable, candidates, dist, start, stop, seed)
             info["tour"] = "heuristic: networkx simulated_annealing_tsp order + exact point choice"
         if order is None:  # many sensors, or stopped: the nearest sensor next
-            order = _nearest_order(servable, candidates, dist, start, stop)
+            order = _nearest_order(servable, candidates, dist, start, stop, placed)
             info["tour"] = "heuristic: nearest neighbour order + exact point choice"
         best = _best_points_for_order(order, candidates, dist, start)
     info["tour_length"] = int(best[0]) if math.isfinite(best[0]) else 0
     return best[1], info
 
 
-def _nearest_order(servable, candidates, dist, start, stop: Stop) -> list[int]:
+def _nearest_order(servable, candidates, dist, start, stop: Stop, placed=lambda k, n: None) -> list[int]:
     """From the start, the sensor nearest to the last one's points next (index order once stopped)."""
     order, left, here = [], set(servable), [start]
     while left and not stop.check():
         nxt = min(left, key=lambda i: (min(dist[x][y] for x in here for y in candidates[i]), i))
+        placed(len(order) + 1, len(servable))
         order.append(nxt)
         left.discard(nxt)
         here = candidates[nxt]
@@ -376,7 +383,10 @@ def shortest_path(instance: Instance, objective: str, *, progress: bool = False,
                 waypoints, info = _tour(robot, stop, int(seed), sensors)
                 return closed_walk(robot, waypoints), info
             return fleet_baselines.shortest_path(instance, objective, stop, int(seed), tour)
-        return _shortest_path(instance, objective, stop, int(seed))
+        with progress_bar(progress) as bar:  # 10,000 sensors: the tour's order takes a while
+            task = bar.add_task("shortest-path: the tour", total=None)
+            return _shortest_path(instance, objective, stop, int(seed),
+                                  lambda k, n: bar.update(task, completed=k, total=n))
 
 
 def closed_walk(instance: Instance, waypoints: list[int]) -> list[int]:
@@ -406,9 +416,9 @@ def _largest_aoi_uploads(instance: Instance, lat, positions: list[int]) -> list[
     return sched
 
 
-def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int) -> Result:
+def _shortest_path(instance: Instance, objective: str, stop: Stop, seed: int, placed=lambda k, n: None) -> Result:
     lat = lattice_mod.build(instance)
-    waypoints, info = _tour(instance, stop, seed)
+    waypoints, info = _tour(instance, stop, seed, placed=placed)
     cycle = closed_walk(instance, waypoints)
     positions = [lat.start]
     used, home = 0, False

@@ -28,7 +28,7 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
     section 10's rules (a sensor serving two robots in one slot stays with the first); else
     their repair: the plan of the path model (no cover rows) that keeps most of their
     positions, moves and uploads. None once there is a plan, INFEASIBLE when
-    HiGHS proves there is none, ERROR when stopped before either."""
+    HiGHS proves there is none, else the limit that stopped it (TIME_LIMIT; ERROR if none did)."""
     inst = run.instance
     if warm_start is not None:
         run.incumbent.offer(*check_plan(inst, warm_start), source="warm start")
@@ -89,9 +89,12 @@ def first_fleet_plan(run, warm_start: Plan | None) -> str | None:
         run.details["note"] = ("no legal joint plan: the robots cannot all keep their ends and budgets without sharing "
                                "a point or swapping points (MODEL.md section 10); HiGHS proved the path model infeasible")
         return Status.INFEASIBLE
-    return _no_plan_yet(run, f"HiGHS: {h.modelStatusToString(ms)}")
+    limited = ms in (highspy.HighsModelStatus.kTimeLimit, highspy.HighsModelStatus.kInterrupt)
+    return _no_plan_yet(run, f"HiGHS: {h.modelStatusToString(ms)}", Status.TIME_LIMIT if limited else Status.ERROR)
 
 
-def _no_plan_yet(run, why: str) -> str:
+def _no_plan_yet(run, why: str, otherwise: Status = Status.ERROR) -> Status:
+    """No plan yet: the status says which limit stopped the work (``time_limit`` also when
+    HiGHS's own clock, set to the time left, stopped it first), else ``otherwise``."""
     run.details["note"] = f"stopped before any legal joint plan was found ({why})"
-    return Status.ERROR
+    return run.stop.reason or otherwise

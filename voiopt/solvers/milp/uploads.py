@@ -9,6 +9,7 @@ Used by the MILP and by the Pyomo model.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -75,6 +76,12 @@ class Structure:
         return best
 
     def min_worth_cap(self) -> np.ndarray:
+        """(T+1,), read-only: ``least_worth_cap``, computed once per Structure (the model's scale,
+        its level terms and the bisection's top candidate each ask for it)."""
+        return self.least_worth_cap
+
+    @functools.cached_property
+    def least_worth_cap(self) -> np.ndarray:
         """(T+1,): an upper bound on min_i worth_i(t), the least worth in slot t, tighter than
         ``best_worth().min(axis=1)``. Each slot uploads at most one sensor per robot, so the
         slots of the N sensors' best uploads so far hold at most K of them each, and one of
@@ -91,7 +98,9 @@ class Structure:
             if w.shape[1]:  # level l has an upload of level >= l in slot first[l]; worths rise with l
                 old = (first[None, :] <= before[:, None]) & ~np.isnan(w)
                 best = np.maximum(best, np.where(old, w, -np.inf).max(axis=1))
-        return np.minimum(best, self.best_worth().min(axis=1))
+        cap = np.minimum(best, self.best_worth().min(axis=1))
+        cap.flags.writeable = False  # shared by every caller
+        return cap
 
     def candidates(self, stop=None) -> np.ndarray:
         """Sorted distinct worths any sensor can have in any slot t = 1..T: each sensor's first,

@@ -27,7 +27,7 @@ from voiopt.grid import joint
 from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import fleet as fleet_mdp
 from voiopt.mdp import robot as mdp_mod
-from voiopt.objectives import AOI_DEFAULT, DEFAULT
+from voiopt.objectives import AOI_DEFAULT, DEFAULT, Worth
 from voiopt.runtime.progress import progress_bar, text_column
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
@@ -79,9 +79,9 @@ def _check_options(episodes, seed, beta, gamma, q_init, penalty):
     for name, v in (("beta", beta), ("gamma", gamma)):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 1:
             bad(name, v, "must be in (0, 1]")
-    for name, v in (("q_init", q_init), ("penalty", penalty)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            bad(name, v, "must be a finite number")
+    if isinstance(q_init, bool) or not isinstance(q_init, (int, float)) or not math.isfinite(q_init):
+        bad("q_init", q_init, "must be a finite number")
+    mdp_mod.check_penalty(penalty)
 
 
 def mdp_bytes(instance: Instance) -> float:
@@ -164,7 +164,8 @@ def _run(instance: Instance, objective: str, reward: str, *, progress: bool,
         columns = (text_column("eps {task.fields[eps]:.3f}"), text_column("greedy {task.fields[greedy]}"),
                    text_column("states {task.fields[states]}"))
         with progress_bar(progress, *columns) as bar:
-            task = bar.add_task(method, total=episodes, eps=1.0, greedy="-", states=0)
+            label = method if reward == Worth.AOI or reward_units == "bit/s" else f"{method} {reward_units}"  # two readings apart
+            task = bar.add_task(label, total=episodes, eps=1.0, greedy="-", states=0)
             while done < episodes:
                 n = min(chunk, episodes - done)
                 c0 = time.perf_counter()
