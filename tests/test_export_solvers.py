@@ -4,7 +4,10 @@ certified optimum; and the log-worth model of min-voi exact for the certified pl
 
 from __future__ import annotations
 
+import errno
+import io
 import math
+import os
 
 import highspy
 import numpy as np
@@ -90,3 +93,20 @@ def test_log_of_keeps_order_nan_and_floors_zero():
 def test_log_worth_is_refused_for_another_objective():
     with pytest.raises(ValueError, match="min-voi only"):
         build(INSTANCES["paper-n3-t10-000"], "mean-min-voi", log_worth=True)
+
+
+def test_a_full_disk_names_the_model_file_and_leaves_nothing(tmp_path, monkeypatch):
+    class Full(io.StringIO):
+        def write(self, s):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    def fdopen(fd, *a, **k):
+        os.close(fd)
+        return Full()
+
+    monkeypatch.setattr(os, "fdopen", fdopen)
+    path = tmp_path / "m.mps"
+    with pytest.raises(OSError) as e:
+        export(INSTANCES["paper-n3-t10-000"], "min-voi", path)
+    assert e.value.errno == errno.ENOSPC and str(path) in str(e.value)
+    assert list(tmp_path.iterdir()) == []

@@ -43,12 +43,9 @@ def export(instance: Instance, objective: str, path: str | os.PathLike, covering
         if h.writeModel(str(tmp)) == highspy.HighsStatus.kError:
             raise OptionError(f"model: HiGHS could not write {str(p)!r}")
         mark = "\\ " if p.suffix.lower() == ".lp" else "* "
-        try:
-            with atomic_write(p) as out, open(tmp, encoding="utf-8") as text:  # a cut-off model never replaces the file
-                out.write("".join(mark + line + "\n" for line in describe(model)))
-                shutil.copyfileobj(text, out)
-        except OSError as e:
-            raise OptionError(f"model: cannot write {str(p)!r}: {e.strerror or e}") from None
+        with atomic_write(p) as out, open(tmp, encoding="utf-8") as text:  # a cut-off model never replaces the file
+            out.write("".join(mark + line + "\n" for line in describe(model)))
+            shutil.copyfileobj(text, out)
     return model
 
 
