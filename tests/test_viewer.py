@@ -211,16 +211,16 @@ def test_a_policy_result_is_shown_as_one_sampled_run_with_its_failures(capsys, t
     out = tmp_path / "pol.json"
     assert run(capsys, "solve", tmp_path / "case-study.json", "--method", "policy-dp", "-o", out, "--quiet")[0] == 0
     assert (tmp_path / "pol.policy.json").exists()
-    assert run(capsys, "show", out, "--seed", "7", "-o", tmp_path / "p.html")[0] == 0
+    assert run(capsys, "show", out, "--seed", "0", "-o", tmp_path / "p.html")[0] == 0
     (r,) = embedded((tmp_path / "p.html").read_text())["results"]
     inst = voiopt.load(tmp_path / "case-study.json")
-    u = sample_scenarios(inst, 1, 7)[0]
+    u = sample_scenarios(inst, 1, 0)[0]
     xy = list(zip(r["x"][0], r["y"][0], strict=True))
     d = [[np.hypot(x - s.position[0], y - s.position[1]) for s in inst.sensors] for x, y in xy]
     sched = r["u"][0]
     failed = [s >= 0 and not u[t, s] < 0.6 for t, s in enumerate(sched)]
     assert any(failed) and any(s >= 0 and not f for s, f in zip(sched, failed, strict=True))  # both kinds occur
-    assert r["run"] == {"seed": 7, "failed": [failed]} and r["method"] == "policy-dp"
+    assert r["run"] == {"seed": 0, "failed": [failed]} and r["method"] == "policy-dp"
     assert all(d[t][s] <= inst.channel.d_th + 1e-9 for t, s in enumerate(sched) if s >= 0)
     realised = Plan(tuple(xy), tuple(None if s < 0 or f else s for s, f in zip(sched, failed, strict=True)))
     traj = voiopt.simulate(inst, realised)  # the simulator takes the realised uploads as they are
