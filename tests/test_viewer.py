@@ -196,3 +196,32 @@ def test_animate_bad_output_is_one_line(capsys, tmp_path, monkeypatch):
 def test_plot_without_animate_is_unchanged(capsys, tmp_path):
     assert run(capsys, "plot", CASE_PLAN, "--instance", CASE, "-o", tmp_path / "a.png")[0] == 0
     assert (tmp_path / "a.png").stat().st_size > 1000
+
+
+def test_a_policy_result_is_shown_as_one_sampled_run_with_its_failures(capsys, tmp_path):
+    """Lossy links: a policy result (no plan; its policy saved beside it) is one run of the policy
+    in scenario 0 of the seed: the uploads it scheduled are drawn, those whose U(t, i) was not
+    below p_i(d) are marked failed, and the ages and values are the simulator's of the uploads
+    that succeeded. A plan result on the same instance is sampled with the same seed."""
+    from voiopt.core.scenarios import sample_scenarios
+
+    lossy = voiopt.load(CASE).to_dict() | {"links": {"model": "bernoulli", "success": 0.6}}
+    lossy["horizon"] = 6
+    (tmp_path / "case-study.json").write_text(json.dumps(lossy))
+    out = tmp_path / "pol.json"
+    assert run(capsys, "solve", tmp_path / "case-study.json", "--method", "policy-dp", "-o", out, "--quiet")[0] == 0
+    assert (tmp_path / "pol.policy.json").exists()
+    assert run(capsys, "show", out, "--seed", "0", "-o", tmp_path / "p.html")[0] == 0
+    (r,) = embedded((tmp_path / "p.html").read_text())["results"]
+    inst = voiopt.load(tmp_path / "case-study.json")
+    u = sample_scenarios(inst, 1, 0)[0]
+    xy = list(zip(r["x"][0], r["y"][0], strict=True))
+    d = [[np.hypot(x - s.position[0], y - s.position[1]) for s in inst.sensors] for x, y in xy]
+    sched = r["u"][0]
+    failed = [s >= 0 and not u[t, s] < 0.6 for t, s in enumerate(sched)]
+    assert any(failed) and any(s >= 0 and not f for s, f in zip(sched, failed, strict=True))  # both kinds occur
+    assert r["run"] == {"seed": 0, "failed": [failed]} and r["method"] == "policy-dp"
+    assert all(d[t][s] <= inst.channel.d_th + 1e-9 for t, s in enumerate(sched) if s >= 0)
+    realised = Plan(tuple(xy), tuple(None if s < 0 or f else s for s, f in zip(sched, failed, strict=True)))
+    traj = voiopt.simulate(inst, realised)  # the simulator takes the realised uploads as they are
+    assert r["aoi"] == traj.aoi.tolist() and r["simulated"]["mean-min-voi"] == traj.metrics["mean-min-voi"]

@@ -8,27 +8,20 @@ the minimum worth (per slot and summed, or over all slots).
 
 from __future__ import annotations
 
-from enum import Enum
-
 import numpy as np
 
 from voiopt.errors import OptionError
+from voiopt.runtime.status import Word
 
 TINY = 1e-300  # the denominator floor of a relative gap
 
 
-class Worth(str, Enum):
+class Worth(Word):
     """What a sensor is worth to an objective: its VoI, or minus its age. It equals its word
     ("voi", "aoi"), as results and files write it."""
 
     VOI = "voi"  # worth = V_i(t)
     AOI = "aoi"  # worth = -A_i(t)
-
-    def __str__(self) -> str:
-        return self.value
-
-    def __format__(self, spec: str) -> str:
-        return format(self.value, spec)
 
 
 class Objective(str):

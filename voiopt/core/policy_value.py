@@ -56,22 +56,30 @@ def exact_value(policy: Policy, objective: str | None = None, max_states: int = 
     return mean if objectives.get(objective).maximise else -mean
 
 
-def run(policy: Policy, u_row: np.ndarray) -> Plan:
-    """The lossless plan that the policy realises in scenario ``u_row`` ((T, N) uniforms):
-    its positions, and its uploads where they succeed (U(t, i) < p_i(d))."""
+def trace(policy: Policy, u_row: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The policy's run in scenario ``u_row`` ((T, N) uniforms): its points, the uploads it
+    scheduled (-1: none) and whether each succeeded (U(t, i) < p_i(d))."""
     steps = policy.steps
     state = steps.start_state()
-    idx, sched = [], []
+    idx, sched, ok = [], [], []
     for t in range(steps.T):
         u, m = policy.choose(t, state)
         move = steps.legal(t, state, u, m)
         if move is None:
             raise OptionError(f"policy: its action ({u}, {m}) at slot {t} is illegal in state {state}")
-        ok = steps.succeeded(t, state, u, float(u_row[t, u])) if u >= 0 else False
+        success = steps.succeeded(t, state, u, float(u_row[t, u])) if u >= 0 else False
         idx.append(state[0])
-        sched.append(u if ok else -1)
-        state = steps.after(t, state, u, *move, ok)
-    return Plan.from_indices(policy.instance, np.array(idx), np.array(sched))
+        sched.append(u)
+        ok.append(success)
+        state = steps.after(t, state, u, *move, success)
+    return np.array(idx), np.array(sched), np.array(ok, dtype=bool)
+
+
+def run(policy: Policy, u_row: np.ndarray) -> Plan:
+    """The lossless plan that the policy realises in scenario ``u_row``: its positions, and its
+    uploads where they succeed."""
+    idx, sched, ok = trace(policy, u_row)
+    return Plan.from_indices(policy.instance, idx, np.where(ok, sched, -1))
 
 
 def monte_carlo_value(policy: Policy, scenarios: np.ndarray, objective: str | None = None) -> Estimate:

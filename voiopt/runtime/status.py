@@ -9,7 +9,18 @@ from __future__ import annotations
 from enum import Enum
 
 
-class Status(str, Enum):
+class Word(str, Enum):
+    """An enum whose members are the words files and messages write: each equals and prints as
+    its value (``Status.OPTIMAL == "optimal"``, f"{Worth.VOI}" is "voi")."""
+
+    def __str__(self) -> str:
+        return self.value
+
+    def __format__(self, spec: str) -> str:
+        return format(self.value, spec)
+
+
+class Status(Word):
     """A result's status. It equals its JSON string (``Status.OPTIMAL == "optimal"``) and prints
     as it, so files, messages and comparisons read the same as the words of MODEL.md."""
 
@@ -20,12 +31,6 @@ class Status(str, Enum):
     INTERRUPTED = "interrupted"  # stopped by Ctrl-C, SIGTERM or SIGHUP, with a plan
     INFEASIBLE = "infeasible"
     ERROR = "error"
-
-    def __str__(self) -> str:
-        return self.value
-
-    def __format__(self, spec: str) -> str:
-        return format(self.value, spec)
 
     @property
     def stopped(self) -> bool:

@@ -31,7 +31,7 @@ class Entry:
     """One plan to show: from a result (method, status, value, bound, gap) or a plan file."""
 
     label: str
-    plan: Plan | FleetPlan
+    plan: Plan | FleetPlan | None  # None for a policy (lossy links), which ``policy`` holds
     objective: str
     method: str | None = None
     status: str | None = None
@@ -42,6 +42,7 @@ class Entry:
     evaluation: str | None = None  # lossy links: "exact" or "monte-carlo" (with samples and value_ci)
     samples: int | None = None
     value_ci: tuple[float, float] | None = None
+    policy: Any = None  # a voiopt.Policy, shown by one sampled run
 
     @property
     def gap_kind(self) -> str:
@@ -59,20 +60,49 @@ def read_entry(path: str | os.PathLike) -> tuple[Entry, str | None]:
             result = Result.from_dict(d)
         except VoioptError as e:
             raise VoioptError(f"{name}: {e}") from None
-        if result.plan is None:
+        policy = _policy_beside(name, d) if result.plan is None else None
+        if result.plan is None and policy is None:
             raise OptionError(f"{name}: the result has no plan to show (status {result.status})")
         text = lambda key: d.get(key) if isinstance(d.get(key), str) else None  # noqa: E731
         ci = d.get("value_ci") if isinstance(d.get("value_ci"), list) and len(d["value_ci"]) == 2 else None
         samples = d.get("samples") if isinstance(d.get("samples"), int) else None
         return Entry(Path(name).name, result.plan, result.objective, result.method, result.status, result.value,
                      result.bound, result.gap, text("bound_kind"), text("evaluation"), samples,
-                     None if ci is None else (float(ci[0]), float(ci[1]))), result.instance
+                     None if ci is None else (float(ci[0]), float(ci[1])), policy), result.instance
     plan = plan_of(d, name)  # a plan, or a plan with instance and objective (a VoI-Lib submission)
     objective = d.get("objective", DEFAULT) if isinstance(d, dict) else DEFAULT
     if objective not in OBJECTIVES:
         raise OptionError(f"{name}: objective: must be one of {', '.join(OBJECTIVES)}, got {show(objective)}")
     return Entry(Path(name).name, plan, objective), made_for(d) or (
         d.get("instance") if isinstance(d, dict) and isinstance(d.get("instance"), str) else None)
+
+
+def _policy_beside(name: str, d: dict) -> Any:
+    """The policy a policy result names (``solver.policy_file``, beside the result), or None."""
+    solver = d.get("solver") if isinstance(d.get("solver"), dict) else {}
+    file = solver.get("policy_file")
+    if not isinstance(file, str):
+        return None
+    from voiopt.core.policy import Policy
+
+    path = Path(name).parent / file
+    try:
+        return Policy.load(path)
+    except VoioptError as e:
+        raise VoioptError(f"{name}: its policy {path}: {e}") from None
+
+
+def policy_run(instance: Instance, policy: Any, seed: int) -> tuple[Plan | FleetPlan, Plan | FleetPlan, dict]:
+    """One sampled run of a policy (scenario 0 of ``sample_scenarios(instance, 1, seed)``): the
+    uploads it scheduled, the lossless plan it realised (failed uploads unscheduled), and the
+    page's ``run`` (seed, and per slot whether a scheduled upload failed)."""
+    from voiopt.core.policy_value import trace
+    from voiopt.core.scenarios import sample_scenarios
+
+    idx, sched, ok = trace(policy, sample_scenarios(instance, 1, seed)[0])
+    failed = (sched >= 0) & ~ok
+    return (Plan.from_indices(instance, idx, sched), Plan.from_indices(instance, idx, np.where(ok, sched, -1)),
+            {"seed": seed, "failed": [failed.tolist()]})
 
 
 def trajectory(instance: Instance, entry: Entry, where: str = "the instance") -> Trajectory:
@@ -130,11 +160,15 @@ def story(instance: Instance, entries: list[Entry], where: str = "the instance",
     T = instance.horizon
     out = []
     for e in entries:
-        traj = trajectory(instance, e, where)
-        robots = e.plan.robots
-        sampled = sampled_run(instance, e.plan, seed)
-        if sampled is not None:  # the run's ages and values: the plan with its failed uploads unscheduled
-            traj = simulate(instance, sampled[0])
+        if e.policy is not None:  # a policy: one sampled run, its scheduled uploads drawn, failures marked
+            shown, realised, run = policy_run(instance, e.policy, seed)
+            robots, traj, sampled = shown.robots, simulate(instance, realised), (realised, run)
+        else:
+            traj = trajectory(instance, e, where)
+            robots = e.plan.robots
+            sampled = sampled_run(instance, e.plan, seed)
+            if sampled is not None:  # the run's ages and values: the plan with its failed uploads unscheduled
+                traj = simulate(instance, sampled[0])
         out.append({
             "label": e.label, "method": e.method, "objective": e.objective, "status": e.status,
             "value": _number(e.value), "bound": _number(e.bound), "gap": _number(e.gap),
