@@ -135,6 +135,10 @@ class VoIEnv(gym.Env):
         for p in range(lat.n_points):
             for k, (u, m) in enumerate(self.model.actions(p)):
                 self._local[p, (u + 1) * 5 + m] = k
+        self._ready(instance)
+
+    def _ready(self, instance: Instance) -> None:
+        """What every env sets last: the scales of its observation, and a first episode."""
         self._max_age = float(self.model.initial_aoi.max() + instance.horizon)
         self._diagonal = math.hypot(instance.width, instance.height)
         self._optimum = None
@@ -376,10 +380,7 @@ class FleetVoIEnv(VoIEnv):
         self._outcomes = Outcomes(instance)
         self._global = np.array([[(u + 1) * 5 + m for u, m in self.model.actions(p)] + [-1] * (self.model.max_actions
                                  - int(self.model.n_actions[p])) for p in range(self.lattice.n_points)], dtype=np.int64)
-        self._max_age = float(self.model.initial_aoi.max() + instance.horizon)
-        self._diagonal = math.hypot(instance.width, instance.height)
-        self._optimum = None
-        self._restart()
+        self._ready(instance)
 
     def _restart(self) -> None:
         K = self.instance.n_robots

@@ -13,7 +13,7 @@ import numpy as np
 from voiopt.core.instance import MAX_HORIZON, MAX_ROBOTS, MAX_SENSORS, Instance, show
 from voiopt.errors import PlanError
 from voiopt.grid import lattice
-from voiopt.runtime.files import read_json
+from voiopt.runtime.files import read_json, reading
 
 
 def _num(v: float) -> float | int:
@@ -185,7 +185,5 @@ def plan_of(d: Any, path: str | os.PathLike, instance_name: str | None = None) -
     other = made_for(d)
     if instance_name is not None and other is not None and other != instance_name:
         raise PlanError(f"{path}: a result for instance {show(other)}, not for {show(instance_name)}")
-    try:
+    with reading(path, PlanError):
         return Plan.from_dict(d)
-    except PlanError as e:
-        raise PlanError(f"{path}: {e}") from None

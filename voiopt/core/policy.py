@@ -41,7 +41,7 @@ from voiopt.core.simulate import check_plan
 from voiopt.core.steps import MOVE_NAMES, Steps
 from voiopt.errors import VoioptError
 from voiopt.objectives import check_objective
-from voiopt.runtime.files import read_json, write_json_atomic
+from voiopt.runtime.files import read_json, reading, write_json_atomic
 
 FORMAT, VERSION = "voiopt-policy", 1
 DIGITS = 9  # distances are matched to this many decimals
@@ -82,8 +82,14 @@ class Policy:
         """(u, m) in a full state (point, moves used, ages, distances) at slot t."""
         if self.kind == "plan":
             return int(self._sched[t]), self._move(t)
-        hit = self.table.get(self.key(t, state))
-        return hit if hit is not None else self.fallback(t, state)
+        key = self.key(t, state)
+        hit = self.table.get(key)
+        return hit if hit is not None else self.missing(t, state, key)
+
+    def missing(self, t: int, state: tuple, key: tuple) -> tuple[int, int]:
+        """The action of a state the table does not hold: the stated fallback. A policy that
+        decides on demand (re-planning, Q-learning's greedy reading) decides here and keeps it."""
+        return self.fallback(t, state)
 
     def fallback(self, t: int, state: tuple) -> tuple[int, int]:
         steps = self.steps
@@ -149,10 +155,8 @@ class Policy:
     @classmethod
     def load(cls, path: str | os.PathLike) -> Policy:
         d = read_json(path, error=VoioptError)
-        try:
+        with reading(path):
             return cls.from_dict(d)
-        except VoioptError as e:
-            raise VoioptError(f"{path}: {e}") from None
 
     @classmethod
     def from_dict(cls, d: Any) -> Policy:

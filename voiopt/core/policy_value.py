@@ -30,6 +30,16 @@ def _reward(policy: Policy, objective: str, state: tuple) -> float:
     return policy.steps.reward(state[2], state[3])
 
 
+def _act(policy: Policy, t: int, state: tuple):
+    """The policy's upload in slot t and state, and its legal move (the steps' form); an illegal
+    action is refused in one line."""
+    u, m = policy.choose(t, state)
+    move = policy.steps.legal(t, state, u, m)
+    if move is None:
+        raise OptionError(f"policy: its action ({u}, {m}) at slot {t} is illegal in state {state}")
+    return u, move
+
+
 def exact_value(policy: Policy, objective: str | None = None, max_states: int = MAX_STATES) -> float | None:
     """The policy's exact expected ``objective`` (default its own), or None where some slot has
     more than ``max_states`` reachable states."""
@@ -42,10 +52,7 @@ def exact_value(policy: Policy, objective: str | None = None, max_states: int = 
     for t in range(steps.T):
         nxt: dict = {}
         for state, prob in layer.items():
-            u, m = policy.choose(t, state)
-            move = steps.legal(t, state, u, m)
-            if move is None:
-                raise OptionError(f"policy: its action ({u}, {m}) at slot {t} is illegal in state {state}")
+            u, move = _act(policy, t, state)
             for p2, s2 in steps.outcomes(t, state, u, *move):
                 nxt[s2] = nxt.get(s2, 0.0) + prob * p2
         if len(nxt) > max_states:
@@ -63,10 +70,7 @@ def trace(policy: Policy, u_row: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     state = steps.start_state()
     idx, sched, ok = [], [], []
     for t in range(steps.T):
-        u, m = policy.choose(t, state)
-        move = steps.legal(t, state, u, m)
-        if move is None:
-            raise OptionError(f"policy: its action ({u}, {m}) at slot {t} is illegal in state {state}")
+        u, move = _act(policy, t, state)
         success = steps.succeeded(t, state, u, float(u_row[t, u])) if u >= 0 else False
         idx.append(state[0])
         sched.append(u)

@@ -66,10 +66,7 @@ class Result:
         solver: dict[str, Any] | None = None,
     ) -> Result:
         """Simulate ``plan`` and build the result; the value is the simulator's, never the solver's."""
-        objective = objectives.get(objective)
-        if status not in STATUSES:
-            raise ValueError(f"status: unknown status {status!r}")
-        status = Status(status)
+        objective, status = objectives.get(objective), _status(status)
         solver = dict(solver or {})
         if plan is None:
             if status.has_plan:
@@ -104,10 +101,7 @@ class Result:
         """A result on a lossy instance (MODEL.md section 11): ``metrics`` are expectations,
         computed as ``evaluation`` says (never a solver's number). ``optimal`` is claimed only
         with an exact value equal, to a relative 1e-6, to an exact bound."""
-        objective = objectives.get(objective)
-        if status not in STATUSES:
-            raise ValueError(f"status: unknown status {status!r}")
-        status = Status(status)
+        objective, status = objectives.get(objective), _status(status)
         if evaluation not in EVALUATIONS or (bound is None) != (bound_kind is None) or (
                 bound_kind is not None and bound_kind not in BOUND_KINDS):
             raise ValueError(f"evaluation {evaluation!r}, bound {bound!r}, bound_kind {bound_kind!r}: not a lossy result")
@@ -193,6 +187,13 @@ def load_result(path: str | os.PathLike) -> Result:
 
 
 STORED_RTOL = 1e-9  # a number stored in a file (a result's, a submission's) against its plan re-simulated
+
+
+def _status(status: str) -> Status:
+    """A status a solver gives, as the enum; an unknown word is a solver's bug."""
+    if status not in STATUSES:
+        raise ValueError(f"status: unknown status {status!r}")
+    return Status(status)
 
 
 def agrees(stored: Any, simulated: float) -> bool:

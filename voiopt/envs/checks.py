@@ -45,22 +45,24 @@ def action_in(action: Any, n: int, what: str = "action") -> int:
     return a
 
 
+def _dict(value: Any, field: str, must: str) -> dict:
+    """A dict ({} for None); anything else is refused in one line naming ``field``."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise OptionError(f"{field}: must be {must}, got {value!r}")
+    return value
+
+
 def reset_options(options: Any) -> dict:
     """reset()'s options as a dict ({} for None); anything else is refused in one line."""
-    if options is None:
-        return {}
-    if not isinstance(options, dict):
-        raise OptionError(f"options: must be a dict such as {{'instance': path}}, got {options!r}")
-    return options
+    return _dict(options, "options", "a dict such as {'instance': path}")
 
 
 def check_sample(sample: Any) -> dict:
     """The keyword arguments of voiopt.networks.generate for sampled networks (without ``seed``)."""
-    if sample is None:
-        return {}
+    sample = _dict(sample, "sample", "a dict of voiopt.networks.generate's arguments")
     allowed = [k for k in inspect.signature(generate_network).parameters if k != "seed"]
-    if not isinstance(sample, dict):
-        raise OptionError(f"sample: must be a dict of voiopt.networks.generate's arguments, got {sample!r}")
     unknown = [k for k in sample if k not in allowed]
     if unknown:
         raise OptionError(f"sample: unknown key {unknown[0]!r} (allowed: {', '.join(allowed)})")

@@ -8,6 +8,7 @@ records the settings of a folder so that two experiments are never mixed.
 from __future__ import annotations
 
 import hashlib
+import importlib
 import json
 import os
 import signal
@@ -139,15 +140,20 @@ def check_seeds(seeds: int) -> int:
     return count_option(seeds, "--seeds")
 
 
+def _dask(module: str):
+    """A module of the [dask] extra; a one-line message naming the extra when it is missing."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise MissingExtraError("distributed", "dask") from None
+
+
 def check_scheduler(dask_scheduler: str | None) -> None:
     """Before any work: the optional package is there, and the address is one (resolved, not
     yet connected to)."""
     if dask_scheduler is None:
         return
-    try:
-        from distributed.comm import resolve_address
-    except ImportError:
-        raise MissingExtraError("distributed", "dask") from None
+    resolve_address = _dask("distributed.comm").resolve_address
     if dask_scheduler != "local":
         try:
             with warnings.catch_warnings():  # a removed protocol warns over several lines, then fails
@@ -284,10 +290,8 @@ def make_executor(workers: int, dask_scheduler: str | None):
         with ProcessPoolExecutor(max_workers=workers, initializer=pool_worker, initargs=(os.getpid(),)) as ex:
             yield ex
         return
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:
-        raise MissingExtraError("distributed", "dask") from None
+    distributed = _dask("distributed")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     if dask_scheduler == "local":
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)

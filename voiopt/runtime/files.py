@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from voiopt.errors import InstanceError, OptionError
+from voiopt.errors import InstanceError, OptionError, VoioptError
 from voiopt.runtime.checker import show
 from voiopt.runtime.stop import sigterm_raises
 
@@ -161,6 +161,16 @@ def read_json(path: str | os.PathLike, error: type[Exception] = InstanceError) -
     except UnicodeDecodeError as e:
         raise error(f"{name}: cannot read: not UTF-8 text (byte {e.start})") from None
     return loads_json(text, error, name)
+
+
+@contextmanager
+def reading(where: str | os.PathLike, error: type[Exception] = VoioptError):
+    """A block that reads what ``where`` names: an ``error`` raised in it is raised again with
+    ``where`` in front, so the message names the file (one line, the same class)."""
+    try:
+        yield
+    except error as e:
+        raise type(e)(f"{os.fspath(where)}: {e}") from None
 
 
 @contextmanager

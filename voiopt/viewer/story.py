@@ -21,7 +21,7 @@ from voiopt.core.result import Result, disagreement
 from voiopt.core.simulate import Trajectory, check_plan, simulate
 from voiopt.errors import OptionError, PlanError, VoioptError
 from voiopt.objectives import DEFAULT, OBJECTIVES, show_gap
-from voiopt.runtime.files import read_json
+from voiopt.runtime.files import read_json, reading
 
 STATISTICAL_BOUNDS = ("information-relaxation",)  # MODEL.md section 11: a bound estimated from samples
 
@@ -86,10 +86,8 @@ def _policy_beside(name: str, d: dict) -> Any:
     from voiopt.core.policy import Policy
 
     path = Path(name).parent / file
-    try:
+    with reading(f"{name}: its policy"):
         return Policy.load(path)
-    except VoioptError as e:
-        raise VoioptError(f"{name}: its policy {path}: {e}") from None
 
 
 def policy_run(instance: Instance, policy: Any, seed: int) -> tuple[Plan | FleetPlan, Plan | FleetPlan, dict]:

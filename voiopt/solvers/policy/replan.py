@@ -48,13 +48,10 @@ class ReplanPolicy(Policy):
         self.tick = None  # called after each solve (progress)
         self.first: object = None  # the slot-0 solve's Result: the lossless optimum
 
-    def choose(self, t: int, state: tuple) -> tuple[int, int]:
-        key = self.key(t, state)
-        hit = self.table.get(key)
-        if hit is None:
-            if self.stop is not None and self.stop.check() is not None:
-                raise Stopped(self.stop.reason)
-            hit = self.table[key] = self._replan(t, state)
+    def missing(self, t: int, state: tuple, key: tuple) -> tuple[int, int]:
+        if self.stop is not None and self.stop.check() is not None:
+            raise Stopped(self.stop.reason)
+        hit = self.table[key] = self._replan(t, state)
         return hit
 
     def _replan(self, t: int, state: tuple) -> tuple[int, int]:

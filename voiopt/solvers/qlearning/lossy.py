@@ -55,11 +55,8 @@ class QPolicy(Policy):
                 c.setdefault(round(float(lat.distance[i, p]), 9), []).append(1 + p)
             self.candidates.append(c)
 
-    def choose(self, t: int, state: tuple) -> tuple[int, int]:
-        key = self.key(t, state)
-        hit = self.table.get(key)
-        if hit is None:
-            hit = self.table[key] = self._greedy(t, state)
+    def missing(self, t: int, state: tuple, key: tuple) -> tuple[int, int]:
+        hit = self.table[key] = self._greedy(t, state)
         return hit
 
     def _greedy(self, t: int, state: tuple) -> tuple[int, int]:
