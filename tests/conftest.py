@@ -212,3 +212,23 @@ def pytest_terminal_summary(terminalreporter):
         reason = str(skipped[0].longrepr[-1]) if isinstance(skipped[0].longrepr, tuple) else str(skipped[0].longrepr)
         terminalreporter.write_sep("!", "BROWSER TESTS DID NOT RUN", red=True, bold=True)
         terminalreporter.write_line(f"{len(skipped)} test(s) of voiopt show in headless Chromium were skipped: {reason}")
+
+
+WARM_UP = (  # every family of numba kernels, compiled (or loaded from numba's cache) once
+    "from voiopt.solvers.dp import fleet, solver\n"
+    "from voiopt.solvers.qlearning import lossy\n"
+    "from voiopt.solvers.qlearning import solver as ql\n"
+    "solver.warm_up(); fleet.warm_up(); ql.warm_up(); ql.warm_up(fleet=True); lossy.warm_up()\n"
+)
+
+
+def pytest_configure(config):
+    """With xdist workers, compile the kernels once, before the workers start: otherwise each
+    worker compiles the same kernels at the same time (on a fresh clone about 50 s of work
+    done twice). Afterwards numba's disk cache makes this about a second."""
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    import subprocess
+
+    print("compiling voiopt's numba kernels once before the workers start (cached afterwards) ...", flush=True)
+    subprocess.run([sys.executable, "-c", WARM_UP], check=True, cwd=Path(__file__).resolve().parent.parent)
