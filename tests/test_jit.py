@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from voiopt.runtime import jit
-from voiopt.solvers.dp import kernels
+from voiopt.solvers.labels import kernels
 
 PACKAGE = Path(jit.__file__).resolve().parent.parent  # voiopt/, above runtime/
 
@@ -132,5 +132,5 @@ def test_editing_only_a_plain_module_a_kernel_imports_recompiles_the_kernel(tmp_
 def test_the_stamp_covers_the_plain_modules_the_package_kernels_import():
     names = jit.stamped()
     assert set(jit.KERNEL_MODULES) <= set(names)
-    assert {"mdp/robot.py", "solvers/dp/tables.py", "grid/paths.py"} <= set(names)
+    assert {"mdp/robot.py", "solvers/labels/tables.py", "grid/paths.py"} <= set(names)
     assert all((PACKAGE / n).is_file() for n in names)

@@ -15,8 +15,8 @@ from voiopt.core.instance import from_dict
 from voiopt.errors import OptionError
 from voiopt.networks.generate import case_study as case_study_instance
 from voiopt.objectives import OBJECTIVES
-from voiopt.solvers.dp import search
 from voiopt.solvers.dp import solver as dp
+from voiopt.solvers.labels import search
 
 RTOL = 1e-6
 
@@ -232,7 +232,8 @@ def test_a_limit_stops_the_build_of_the_value_table_and_its_blocks_change_no_bit
     limit, in dp and in beam (a fuzz campaign). They are now computed a block at a time, the
     stop rule checked between blocks; stopped there, the robot heads for its end (or stays)
     without uploads. The blocks change no bit of W."""
-    from voiopt.solvers.dp import beam, tables
+    from voiopt.solvers.dp import beam
+    from voiopt.solvers.labels import tables
 
     inst = voiopt.generate(3, 40, seed=6, end="random")
     whole = tables.build_tables(inst, "mean-min-voi").W
@@ -249,7 +250,7 @@ def test_the_value_table_checks_the_stop_rule_after_every_block(monkeypatch):
     counted: after every second block (at T = 1633 on a busy machine, 1.7 s for a 0.3 s limit)."""
     from voiopt.core import physics
     from voiopt.runtime.stop import Stop
-    from voiopt.solvers.dp import tables
+    from voiopt.solvers.labels import tables
 
     inst = voiopt.generate(3, 40, seed=6, end="random")
     monkeypatch.setattr(tables, "VOI_BLOCK", 1000)

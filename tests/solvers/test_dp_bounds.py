@@ -18,10 +18,10 @@ import voiopt
 from voiopt.grid import lattice
 from voiopt.objectives import OBJECTIVES
 from voiopt.solvers.base import idle_plan
-from voiopt.solvers.dp import kernels as core
 from voiopt.solvers.dp import solver as dp
 from voiopt.solvers.dp import subsets
-from voiopt.solvers.dp.tables import build_tables
+from voiopt.solvers.labels import kernels as core
+from voiopt.solvers.labels.tables import build_tables
 
 RTOL = 1e-9
 EXACT = 1e-12  # the rounding of two sums of the same terms (subsets.reaches)

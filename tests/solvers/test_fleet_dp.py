@@ -23,6 +23,7 @@ import voiopt
 from voiopt.core.instance import from_dict
 from voiopt.errors import OptionError
 from voiopt.solvers.dp import fleet as fleet_dp
+from voiopt.solvers.labels import fleet_search
 
 CASES = fleet_instances()
 OBJECTIVES = list(oracle.OBJECTIVES)
@@ -241,7 +242,7 @@ def test_memory_limit_and_ctrl_c_stop_with_a_legal_plan():
     """A memory limit the product state fits but the labels do not, and a Ctrl-C during the
     search: each stops with its status and a legal plan (the simulator checks it)."""
     inst = fleet(4, 15, 4, 3, [(0, 0), (4, 4)])
-    limit = fleet_dp.joint_bytes(inst) * 1.5 / 1e9
+    limit = fleet_search.joint_bytes(inst) * 1.5 / 1e9
     r = voiopt.solve(inst, method="dp", objective="mean-min-voi", memory_limit=limit)
     assert r.status == "memory_limit" and r.solver["stopped"] == f"memory limit of {limit:g} GB reached"
     assert voiopt.evaluate(inst, r.plan)["mean-min-voi"] == r.value

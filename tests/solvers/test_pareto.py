@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from voiopt.solvers.dp import kernels as core
+from voiopt.solvers.labels import kernels as core
 
 
 def pack(lanes: np.ndarray) -> np.ndarray:

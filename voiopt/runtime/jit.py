@@ -32,10 +32,10 @@ ROOT = Path(__file__).resolve().parent.parent  # the package
 KERNEL_MODULES = (  # every module of the package that defines kernels (tests/test_jit.py keeps this complete)
     "runtime/libm.py",
     "grid/joint.py",
-    "solvers/dp/bounds.py",
-    "solvers/dp/kernels.py",
+    "solvers/labels/bounds.py",
+    "solvers/labels/kernels.py",
     "solvers/dp/patterns.py",
-    "solvers/dp/fleet_kernels.py",
+    "solvers/labels/fleet_kernels.py",
     "solvers/qlearning/fleet.py",
     "solvers/qlearning/kernels.py",
     "solvers/qlearning/lossy_kernels.py",
@@ -59,7 +59,7 @@ def digest() -> str:
 def stamped() -> list[str]:
     """The files the stamp covers: KERNEL_MODULES and every module of the package they import.
     A kernel freezes the globals it reads when it is compiled, so a constant or a function a
-    kernel module imports from a plain module (``mdp.robot``'s, ``dp.tables``') is part of its
+    kernel module imports from a plain module (``mdp.robot``'s, ``labels.tables``') is part of its
     machine code too: editing that module must recompile it."""
     names = list(KERNEL_MODULES)
     for name in KERNEL_MODULES:

@@ -219,12 +219,12 @@ def _legal_paths(instance: Instance, objective: str, stop: Stop) -> np.ndarray |
     lattices only); None where neither applies."""
     from voiopt.errors import VoioptError
     from voiopt.mdp import fleet as fleet_mdp
-    from voiopt.solvers.dp import fleet as fleet_dp
+    from voiopt.solvers.labels import fleet_search
 
     if instance.n_robots == 2:
         try:
-            fleet_dp.check_fleet(instance, stop.memory_limit)
-            out = fleet_dp.legal_pass(fleet_dp.build_joint(instance, objective), stop)
+            fleet_search.check_fleet(instance, stop.memory_limit)
+            out = fleet_search.legal_pass(fleet_search.build_joint(instance, objective), stop)
         except VoioptError:
             out = None
         if out is not None and out.plan is None:

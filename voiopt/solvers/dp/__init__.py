@@ -1,1 +1,1 @@
-"""The exact label-setting dynamic programme (solver, search, kernels, tables, bounds, subsets, patterns, cover), its two-robot form (fleet, fleet_kernels) and the beam planner built on its kernels (beam)."""
+"""The exact label-setting dynamic programme (solver; its bounds: cover, patterns, subsets), its two-robot form (fleet) and the beam planner (beam), all searching with the engine in solvers/labels."""

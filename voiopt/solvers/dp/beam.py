@@ -33,6 +33,8 @@ from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers import options
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits, idle_plan, require_memory
 from voiopt.solvers.dp import solver as dp
+from voiopt.solvers.labels.search import search
+from voiopt.solvers.labels.tables import build_tables, table_bytes
 
 WIDTHS = (2, 4, 8, 16, 32, 64)
 LABEL_BUDGET = 100_000  # labels of the default schedule's passes; a pass costs about 70 us a label
@@ -54,19 +56,19 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         raise OptionError(f"max_width: must be an integer >= 1, got {max_width!r}")
     budget = LABEL_BUDGET if max_width is None else None
     max_width = WIDTHS[-1] if max_width is None else max_width
-    require_memory(dp.table_bytes(instance), memory_limit, "the beam's tables")
+    require_memory(table_bytes(instance), memory_limit, "the beam's tables")
     startup_s = dp.warm_up()
     widths = [w for w in WIDTHS if w < max_width] + [max_width]
     with watch(time_limit, memory_limit) as stop:
         try:
-            tab = dp.build_tables(instance, objective, stop)
+            tab = build_tables(instance, objective, stop)
         except Stopped:  # no pass: the plan below
             tab, widths = None, []
         best_plan, best_internal, passes = None, -np.inf, []
         with progress_bar(progress) as bar:
             task = bar.add_task("beam widths", total=len(widths))
             for w in widths:
-                out = dp.search(tab, best_internal, beam=w, tdma=False, stop=stop)
+                out = search(tab, best_internal, beam=w, tdma=False, stop=stop)
                 if out.plan is not None:
                     plan = Plan.from_indices(instance, *out.plan)
                     v = tab.internal(simulate(instance, plan).metrics[objective])

@@ -24,7 +24,7 @@ import numpy as np
 from voiopt.core.instance import Instance
 from voiopt.grid import lattice as lattice_mod
 from voiopt.grid import paths
-from voiopt.solvers.dp.tables import Tables
+from voiopt.solvers.labels.tables import Tables
 
 MAX_WORK = 5e7  # 2^N x points^2 of the exact programme: about a second; beyond it, no bound
 MAX_SENSORS = 14  # its loop over the 2^N sets is Python's
@@ -35,7 +35,7 @@ def bound(instance: Instance, tab: Tables) -> float:
     """The cover bound in the kernels' (maximised) units; +inf where every set is covered by
     some walk, or with several robots. Where the exact programme would cost too much (over
     MAX_WORK, MAX_SENSORS or MAX_POINTS), only the sets of one sensor: the stranded ones."""
-    from voiopt.solvers.dp import kernels as core
+    from voiopt.solvers.labels import kernels as core
 
     if instance.fleet:
         return np.inf

@@ -48,7 +48,7 @@ import numpy as np
 from voiopt.core.instance import Instance
 from voiopt.runtime.jit import njit
 from voiopt.solvers.dp import subsets
-from voiopt.solvers.dp.tables import Tables, watched, watched_all
+from voiopt.solvers.labels.tables import Tables, watched, watched_all
 
 
 @dataclass

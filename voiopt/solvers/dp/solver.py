@@ -3,7 +3,7 @@
 A label is (slot, position, per-sensor rank of the latest upload, accumulated objective).
 Forward over slots, at every (slot, position) only the non-dominated labels survive; labels
 whose admissible bound cannot beat the incumbent are dropped; sensors that can no longer
-change the objective are collapsed. The compiled kernels live in ``_dp_core``.
+change the objective are collapsed. The compiled kernels live in ``labels.kernels``.
 """
 
 from __future__ import annotations
@@ -34,8 +34,14 @@ from voiopt.solvers.base import (
 from voiopt.solvers.dp import cover as covering
 from voiopt.solvers.dp import patterns as pattern_bound
 from voiopt.solvers.dp import subsets as subset_bound
-from voiopt.solvers.dp.search import LABEL_BUDGET, SearchOutcome, search
-from voiopt.solvers.dp.tables import CHUNK_WORK, PAIR_TABLE_BYTES, Tables, build_tables, table_bytes
+from voiopt.solvers.labels.search import LABEL_BUDGET, SearchOutcome, search
+from voiopt.solvers.labels.tables import (
+    CHUNK_WORK,
+    PAIR_TABLE_BYTES,
+    Tables,
+    build_tables,
+    table_bytes,
+)
 
 __all__ = ["CHUNK_WORK", "PAIR_TABLE_BYTES", "Tables", "build_tables", "table_bytes", "search", "solve", "warm_up"]
 

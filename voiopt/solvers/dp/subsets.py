@@ -25,7 +25,7 @@ from voiopt.objectives import Worth
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stop
-from voiopt.solvers.dp.tables import progress_text
+from voiopt.solvers.labels.tables import progress_text
 
 SHARE = 0.3  # of the time left that the subsets may take (the pattern databases need little of it)
 STRETCH = 0.5  # of the time left: the most they may take when the next subset is predicted to fit in it
@@ -88,7 +88,7 @@ def need_order(tab) -> list[int]:
     """Sensors by how low the per-sensor relaxation keeps their worth from the start (bound 1
     summed over slots; its minimum for a bottleneck objective): those most likely to set the
     minimum come first."""
-    from voiopt.solvers.dp import kernels as core
+    from voiopt.solvers.labels import kernels as core
 
     N, T = tab.W.shape[0], tab.W.shape[2] - 1
     rank = np.maximum(tab.initial_rank[:, None], tab.best_rank[:, tab.start, 0, 1:])  # (N, T): slots 1..T

@@ -1,5 +1,5 @@
 """One forward pass of dp over the slots (docs/dp.md, "State and transitions" to "Bounds"):
-the labels of each slot expanded by the compiled kernels of ``_dp_core``, chunk by chunk,
+the labels of each slot expanded by the compiled kernels of ``labels.kernels``, chunk by chunk,
 filtered by dominance and by the bounds (and pattern databases) against an incumbent, with
 the stop rule, memory and a label budget checked between chunks. ``dp`` runs its passes
 (beam, fast, bounded) through ``search``.
@@ -13,7 +13,7 @@ import numpy as np
 
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.stop import Stop
-from voiopt.solvers.dp.tables import CHUNK_WORK, Tables, progress_text, run_of, watched_all
+from voiopt.solvers.labels.tables import CHUNK_WORK, Tables, progress_text, run_of, watched_all
 
 
 @dataclass
@@ -59,7 +59,7 @@ def search(tab: Tables, incumbent: float, *, beam: int = 0, collapse: bool = Tru
     built at threshold z needs ``incumbent`` >= z, and then a stopped pass's ``open_bound``
     bounds the optimum only together with z (max of the two): see _dp_pattern."""
     stop = stop or Stop()
-    from voiopt.solvers.dp import kernels as core
+    from voiopt.solvers.labels import kernels as core
 
     T, n, N = tab.up_rank.shape
     inc = incumbent if bounding else -np.inf

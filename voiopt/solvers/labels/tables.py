@@ -26,7 +26,7 @@ PAIR_TABLE_BYTES = 400e6  # the pairwise bound is skipped where its table would 
 
 @dataclass
 class Tables:
-    """The instance compiled for the kernels (see the module docstring of _dp_core)."""
+    """The instance compiled for the kernels (see the module docstring of labels.kernels)."""
 
     mode: int  # SUM or MIN
     initial_rank: np.ndarray  # (N,) int16
@@ -63,14 +63,14 @@ class Tables:
 
     def with_tour_bound(self) -> None:
         """Compute the moves between sensors' ranges that the tour bound needs (one robot only)."""
-        from voiopt.solvers.dp import bounds
+        from voiopt.solvers.labels import bounds
 
         if self.up_rank.shape[2] > 1 and self.steps.shape[0] == 0:
             self.steps = bounds.range_steps(self.point_steps, self.sensor_points, self.sensor_point_count)
 
     def with_pair_bound(self, max_bytes: float = PAIR_TABLE_BYTES) -> None:
         """Compute the pairwise travel table (skipped if it would exceed ``max_bytes``)."""
-        from voiopt.solvers.dp import bounds
+        from voiopt.solvers.labels import bounds
 
         T, n, N = self.up_rank.shape
         if N > 1 and self.pair.shape[0] == 0 and N * N * T * n * (T + 1) * 8 <= max_bytes:
@@ -98,7 +98,7 @@ def build_tables(instance: Instance, objective: str, stop: Stop | None = None) -
     block held 2^18 less a few: every second block; and each sensor's ages, worths and mask were
     made whole first (about 800 MB of first writes at T = 1633): 1.7 s for a 0.3 s limit on a
     busy machine."""
-    from voiopt.solvers.dp import kernels as core
+    from voiopt.solvers.labels import kernels as core
 
     lat = lattice_mod.build(instance)
     T, N, n = instance.horizon, instance.n_sensors, lat.n_points

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt.runtime.jit import njit
-from voiopt.solvers.dp.bounds import distinct_ages_bound, pair_bound, tour_bound
+from voiopt.solvers.labels.bounds import distinct_ages_bound, pair_bound, tour_bound
 
 SUM, MIN = 0, 1
 

@@ -1,6 +1,6 @@
 """Compiled kernels of the two-robot label-setting programme (voiopt/solvers/dp/fleet.py, docs/dp.md).
 
-The ranks, worth table ``W`` and ``best_rank`` are the one-robot programme's (see _dp_core):
+The ranks, worth table ``W`` and ``best_rank`` are the one-robot programme's (see labels.kernels):
 they depend on the network, not on the robot. A label here is (slot, p0, p1, moves left of
 each robot, ranks, accumulated value); a layer's labels are grouped by the *bucket*
 p0 * n + p1, ``off`` giving each bucket's range. Within a bucket a label is kept unless another
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt.runtime.jit import njit
-from voiopt.solvers.dp.kernels import SUM, combine, pareto
+from voiopt.solvers.labels.kernels import SUM, combine, pareto
 
 
 @njit(cache=True, inline="always")

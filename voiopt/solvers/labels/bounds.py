@@ -1,6 +1,6 @@
 """Compiled slot bounds of the label-setting programme (docs/dp.md, "Bounds"): upper bounds on
 min_i V_i(t2) in a later slot t2 for a label in slot tau at point q with ranks ``rank``, each
-tighter than the per-sensor relaxation (``best_rank``) that _dp_core applies to every child.
+tighter than the per-sensor relaxation (``best_rank``) that labels.kernels applies to every child.
 
 - ``distinct_ages_bound``: one upload per slot, so of any k sensors one was refreshed k - 1
   slots before the last;
