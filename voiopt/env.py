@@ -137,6 +137,13 @@ class VoIEnv(gym.Env):
                 self._local[p, (u + 1) * 5 + m] = k
         self._ready(instance)
 
+    def _penalise(self, reward: float, feasible: bool) -> float:
+        """An infeasible action executed as its feasible part pays ``penalty`` (and is counted)."""
+        if feasible:
+            return reward
+        self._penalised += 1
+        return reward - self.options["penalty"]
+
     def _ready(self, instance: Instance) -> None:
         """What every env sets last: the scales of its observation, and a first episode."""
         self._max_age = float(self.model.initial_aoi.max() + instance.horizon)
@@ -250,9 +257,7 @@ class VoIEnv(gym.Env):
             if self.options["reward_units"] == "bit/s/Hz":
                 reward *= self.instance.channel.bandwidth_hz
             reward /= self.optimum()
-        if not feasible:
-            reward -= self.options["penalty"]
-            self._penalised += 1
+        reward = self._penalise(reward, feasible)
         self.t += 1
         terminated = self.t >= self.instance.horizon
         info = self._info() | self._outcomes.info(outcome)
@@ -454,9 +459,7 @@ class FleetVoIEnv(VoIEnv):
             j = self._mdp_number([m % 5 if ok is False else m for m, ok in zip(self.split_action(self._env_number(j)), outcome, strict=True)])
         self.state, reward = self.joint.step(self.state, j)
         reward = Outcomes.refunded(reward, outcome, self.options["penalty"])
-        if not feasible:
-            reward -= self.options["penalty"]
-            self._penalised += 1
+        reward = self._penalise(reward, feasible)
         self.t += 1
         info = self._info() | self._outcomes.info(outcome)
         info["infeasible"] = not feasible
