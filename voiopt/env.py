@@ -59,6 +59,7 @@ from voiopt.envs.checks import (
     check_sample,
     reset_options,
 )
+from voiopt.grid import joint
 from voiopt.grid import lattice as lattice_mod
 from voiopt.mdp import robot as mdp_mod
 from voiopt.mdp.outcomes import Outcomes
@@ -399,11 +400,7 @@ class FleetVoIEnv(VoIEnv):
 
     def joint_action(self, actions) -> int:
         """The Discrete number of per-robot actions (each upload * 5 + move, upload 0 = none)."""
-        A = (self.instance.n_sensors + 1) * 5
-        out = 0
-        for a in actions:
-            out = out * A + int(a)
-        return out
+        return joint.number(actions, (self.instance.n_sensors + 1) * 5)
 
     def split_action(self, action: int) -> list[int]:
         """Per-robot actions (upload * 5 + move) of a joint Discrete number."""

@@ -234,12 +234,18 @@ def table(neighbors: np.ndarray, ends, max_moves, horizon: int, stop=None) -> Ta
     return Table(alive, first, configs, nxt_cfg, moved, mv_idx, strides, counted, bud, neighbors.shape[0])
 
 
+def number(digits, base: int) -> int:
+    """The number whose digits in ``base`` are ``digits``, the first most significant: a joint
+    point of the robots' points, or a joint action of their actions."""
+    c = 0
+    for d in digits:
+        c = c * base + int(d)
+    return c
+
+
 def start_index(starts, n_points: int) -> int:
     """The joint point of the robots' points (robot 0 most significant)."""
-    c = 0
-    for p in starts:
-        c = c * n_points + int(p)
-    return c
+    return number(starts, n_points)
 
 
 def walk(tab: Table, starts) -> np.ndarray | None:

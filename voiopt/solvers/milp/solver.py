@@ -266,6 +266,12 @@ class _Run:
 
     # ------------------------------------------------------- min-voi, max-aoi: bisection
 
+    def _stopped_building(self, t: float, what: str):
+        """Stopped while building (since ``t``): the best plan so far, the warm start's, and no bound."""
+        self.details["build_s"] += time.perf_counter() - t
+        self.details["note"] = f"stopped while {what}; the plan is the warm start's"
+        return self.stop.reason, None
+
     def solve_bisection(self) -> tuple[str, float]:
         """Largest candidate worth J such that every sensor can be kept >= J in every slot."""
         import highspy
@@ -275,9 +281,7 @@ class _Run:
             st = milp_uploads.structure(self.instance, self.kind, self.stop)
             cand = st.candidates(self.stop)
         except Stopped:  # the best plan so far (the warm start), no bound
-            self.details["build_s"] += time.perf_counter() - t
-            self.details["note"] = "stopped while the uploads' worths were computed (T^2 of them); the plan is the warm start's"
-            return self.stop.reason, None
+            return self._stopped_building(t, "the uploads' worths were computed (T^2 of them)")
         top = int(np.searchsorted(cand, st.min_worth_cap()[1:].min(), side="right")) - 1
         lo = self._feasible_index(cand, self.worth(self.incumbent.value))
         hi = top  # cand[hi + 1:] are proven infeasible (or exceed the relaxation)
@@ -337,10 +341,8 @@ class _Run:
         scale = warm_worth if self.kind == Worth.VOI and warm_worth > 0 else None
         try:
             model = milp_formulation.build(self.instance, self.objective, scale=scale, stop=self.stop)
-        except Stopped:  # the best plan so far (the warm start), no bound
-            self.details["build_s"] += time.perf_counter() - t
-            self.details["note"] = "stopped while the MILP was built (it grows as T^2); the plan is the warm start's"
-            return self.stop.reason, None
+        except Stopped:
+            return self._stopped_building(t, "the MILP was built (it grows as T^2)")
         self.details["scale"] = model.scale
         self.details["build_s"] += time.perf_counter() - t
         h = self.highs(model)

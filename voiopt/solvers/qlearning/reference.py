@@ -33,6 +33,14 @@ def first_max(q, allowed):
     return max(allowed, key=lambda j: (q[j], -j))
 
 
+def epsilon_greedy(rng, eps: float, q, allowed):
+    """Algorithm 1's choice: with probability eps a uniform allowed action, else the first of
+    maximal Q (two uniforms when exploring, one otherwise, as the kernels draw them)."""
+    if rng.uniform() < eps:
+        return allowed[int(rng.uniform() * len(allowed))]
+    return first_max(q, allowed)
+
+
 def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75, gamma: float = 0.9,
                         q_init: float = 0.0):
     """Run Algorithm 1 on an voiopt.mdp.robot.MDP; return (Q dict, point indices, schedule)."""
@@ -53,12 +61,7 @@ def reference_qlearning(model, episodes: int, seed: int = 0, beta: float = 0.75,
         state = model.initial_state()
         q = row(state)
         for t in range(T):
-            allowed = feasible(state, t, q)
-            x = rng.uniform()
-            if x < eps:
-                k = allowed[int(rng.uniform() * len(allowed))]
-            else:
-                k = first_max(q, allowed)
+            k = epsilon_greedy(rng, eps, q, feasible(state, t, q))
             nxt, r = model.step(state, k)
             if t + 1 < T:
                 q_next = row(nxt)
@@ -94,11 +97,7 @@ def reference_fleet_qlearning(model, episodes: int, seed: int = 0, beta: float =
         state = model.initial_state()
         q = Q.setdefault(state, [q_init] * model.joint_count(state[0]))
         for t in range(T):
-            allowed = model.legal(state, t)
-            if rng.uniform() < eps:
-                k = allowed[int(rng.uniform() * len(allowed))]
-            else:
-                k = first_max(q, allowed)
+            k = epsilon_greedy(rng, eps, q, model.legal(state, t))
             nxt, r = model.step(state, k)
             if t + 1 < T:
                 q_next = Q.setdefault(nxt, [q_init] * model.joint_count(nxt[0]))
