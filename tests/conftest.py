@@ -18,6 +18,19 @@ import voiopt  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 
 
+def run_cli(capsys, *argv):
+    """(exit status, stdout, stderr) of the voiopt command in this process; argparse's own
+    errors (SystemExit) count as their status."""
+    from voiopt.cli.main import main
+
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as e:
+        code = e.code
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
 def tiny_instances(count: int = 30, seed: int = 12345) -> list[voiopt.Instance]:
     """A varied set of tiny networks: normal, low-VoI (rho small, long horizon), low power."""
     out = []

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, run_cli
 
 import voiopt
 from voiopt.cli.main import main
@@ -22,10 +22,6 @@ CASE = str(ROOT / "instances" / "case-study.json")
 PLAN = str(ROOT / "instances" / "case-study.plan.json")
 
 
-def run(capsys, *argv):
-    code = main(list(argv))
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def one_line_error(err: str) -> str:
@@ -36,12 +32,12 @@ def one_line_error(err: str) -> str:
 
 
 def test_validate_ok_and_bad(capsys, tmp_path):
-    assert run(capsys, "validate", CASE)[:2] == (0, "ok\n")
+    assert run_cli(capsys, "validate", CASE)[:2] == (0, "ok\n")
     bad = tmp_path / "bad.json"
     d = voiopt.case_study().to_dict()
     d["sensors"][2]["rho"] = 1.0
     bad.write_text(json.dumps(d))
-    code, out, err = run(capsys, "validate", str(bad))
+    code, out, err = run_cli(capsys, "validate", str(bad))
     assert code == 2
     assert one_line_error(err) == f"{bad}: sensors[2].rho: must be in (0, 1), got 1.0"
 
@@ -52,21 +48,21 @@ def test_validate_lists_every_error(capsys, tmp_path):
     d["sensors"][0]["rho"] = 0
     d["horizon"] = -3
     bad.write_text(json.dumps(d))
-    code, _, err = run(capsys, "validate", str(bad))
+    code, _, err = run_cli(capsys, "validate", str(bad))
     assert code == 2 and len(err.strip().splitlines()) == 2
 
 
 def test_evaluate_table_and_json(capsys, tmp_path):
-    code, out, _ = run(capsys, "evaluate", CASE, PLAN)
+    code, out, _ = run_cli(capsys, "evaluate", CASE, PLAN)
     assert code == 0 and "mean-min-voi" in out and "7.9" in out
-    code, out, _ = run(capsys, "evaluate", CASE, PLAN, "--json")
+    code, out, _ = run_cli(capsys, "evaluate", CASE, PLAN, "--json")
     metrics = json.loads(out)["metrics"]
     assert metrics == voiopt.evaluate(voiopt.case_study(), CASE_STUDY_PLAN)
     assert set(metrics) == {"min-voi", "mean-min-voi", "max-aoi", "mean-max-aoi"}
     # a whole result JSON works as PLAN too
     result = tmp_path / "result.json"
     result.write_text(json.dumps({"instance": "case-study", "plan": CASE_STUDY_PLAN}))
-    code, out, _ = run(capsys, "evaluate", CASE, str(result), "--json")
+    code, out, _ = run_cli(capsys, "evaluate", CASE, str(result), "--json")
     assert json.loads(out)["metrics"] == metrics
 
 
@@ -81,26 +77,26 @@ def test_evaluate_table_and_json(capsys, tmp_path):
 def test_evaluate_bad_plans_exit_2(capsys, tmp_path, plan, message):
     p = tmp_path / "plan.json"
     p.write_text(plan if isinstance(plan, str) else json.dumps(plan))
-    code, out, err = run(capsys, "evaluate", CASE, str(p))
+    code, out, err = run_cli(capsys, "evaluate", CASE, str(p))
     assert code == 2 and out == ""
     assert message in one_line_error(err)
 
 
 def test_evaluate_missing_files_exit_2(capsys, tmp_path):
-    code, _, err = run(capsys, "evaluate", str(tmp_path / "none.json"), PLAN)
+    code, _, err = run_cli(capsys, "evaluate", str(tmp_path / "none.json"), PLAN)
     assert code == 2 and "no such file" in one_line_error(err)
-    code, _, err = run(capsys, "evaluate", CASE, str(tmp_path / "none.json"))
+    code, _, err = run_cli(capsys, "evaluate", CASE, str(tmp_path / "none.json"))
     assert code == 2 and "no such file" in one_line_error(err)
 
 
 def test_generate_set_is_deterministic(capsys, tmp_path):
     for out_dir in ("a", "b"):
-        assert run(capsys, "generate", "--sensors", "3", "--horizon", "8", "--count", "4", "--seed", "5", "--out", str(tmp_path / out_dir))[0] == 0
+        assert run_cli(capsys, "generate", "--sensors", "3", "--horizon", "8", "--count", "4", "--seed", "5", "--out", str(tmp_path / out_dir))[0] == 0
     a = sorted((tmp_path / "a").iterdir())
     b = sorted((tmp_path / "b").iterdir())
     assert len(a) == 4 and [p.read_text() for p in a] == [p.read_text() for p in b]
     assert voiopt.load(a[0]).n_sensors == 3
-    code, out, _ = run(capsys, "generate", "--sensors", "2", "--rho", "0.2", "0.3", "--power", "0.01")
+    code, out, _ = run_cli(capsys, "generate", "--sensors", "2", "--rho", "0.2", "0.3", "--power", "0.01")
     inst = voiopt.core.instance.from_dict(json.loads(out))
     assert all(0.2 <= s.rho <= 0.3 and s.power_w == 0.01 for s in inst.sensors)
 
@@ -109,15 +105,15 @@ def test_generate_set_is_deterministic(capsys, tmp_path):
 def test_generate_refuses_to_replace_other_instances_of_the_same_name(capsys, tmp_path):
     """File names depend on N, T and the seed alone: another --rho must not replace a set."""
     args = ["generate", "--sensors", "2", "--horizon", "6", "--count", "2", "--seed", "1", "--out", str(tmp_path)]
-    assert run(capsys, *args)[0] == 0
+    assert run_cli(capsys, *args)[0] == 0
     before = {p.name: p.read_text() for p in tmp_path.iterdir()}
-    assert run(capsys, *args)[0] == 0  # the same set again: nothing changes
+    assert run_cli(capsys, *args)[0] == 0  # the same set again: nothing changes
     assert {p.name: p.read_text() for p in tmp_path.iterdir()} == before
-    code, _, err = run(capsys, *args, "--rho", "0.2", "0.3")
+    code, _, err = run_cli(capsys, *args, "--rho", "0.2", "0.3")
     line = one_line_error(err)
     assert code == 2 and "--out" in line and "already holds another instance" in line
     assert {p.name: p.read_text() for p in tmp_path.iterdir()} == before  # nothing written
-    assert run(capsys, *args, "--rho", "0.2", "0.3", "--overwrite")[0] == 0
+    assert run_cli(capsys, *args, "--rho", "0.2", "0.3", "--overwrite")[0] == 0
     after = {p.name: voiopt.load(p) for p in tmp_path.iterdir()}
     assert after.keys() == before.keys() and all(0.2 <= s.rho <= 0.3 for i in after.values() for s in i.sensors)
 
@@ -132,7 +128,7 @@ def test_generate_refuses_to_replace_other_instances_of_the_same_name(capsys, tm
     ],
 )
 def test_bad_options_exit_2(capsys, argv, message):
-    code, _, err = run(capsys, *argv)
+    code, _, err = run_cli(capsys, *argv)
     assert code == 2 and message in one_line_error(err)
 
 
@@ -152,7 +148,7 @@ def test_installed_command_has_no_traceback(tmp_path):
 
 
 def test_demo_prints_the_case_study_metrics(capsys):
-    code, out, _ = run(capsys, "demo")
+    code, out, _ = run_cli(capsys, "demo")
     assert code == 0 and "case-study" in out and "mean-min-voi" in out
 
 
@@ -175,31 +171,31 @@ def test_the_demo_merges_a_method_s_seeds_only_where_they_agree():
 
 def test_evaluate_and_warm_start_name_the_plan_file_and_refuse_another_instance_s_result(capsys, tmp_path):
     result = tmp_path / "case.json"
-    assert run(capsys, "solve", CASE, "--method", "greedy", "--quiet", "-o", str(result))[0] == 0
+    assert run_cli(capsys, "solve", CASE, "--method", "greedy", "--quiet", "-o", str(result))[0] == 0
     dock = str(Path(CASE).with_name("dock.json"))
-    code, _, err = run(capsys, "evaluate", dock, str(result))
+    code, _, err = run_cli(capsys, "evaluate", dock, str(result))
     assert code == 2 and one_line_error(err).endswith(f'{result}: a result for instance "case-study", not for "dock"')
     for argv in (["evaluate", CASE, dock], ["solve", CASE, "--method", "dp", "--quiet", "--warm-start", dock]):
-        code, _, err = run(capsys, *argv)
+        code, _, err = run_cli(capsys, *argv)
         assert code == 2 and f"{dock}: an instance, not a plan" in one_line_error(err)
     plan = json.loads(result.read_text())["plan"]
     plan["positions"][1] = [4.0, 4.0]
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps(plan))
-    code, _, err = run(capsys, "evaluate", CASE, str(bad))
+    code, _, err = run_cli(capsys, "evaluate", CASE, str(bad))
     assert code == 2 and one_line_error(err).startswith(f"voiopt: error: {bad}: positions[1]: [4, 4] is not one")
-    code, _, err = run(capsys, "solve", CASE, "--method", "dp", "--quiet", "--warm-start", str(bad))
+    code, _, err = run_cli(capsys, "solve", CASE, "--method", "dp", "--quiet", "--warm-start", str(bad))
     assert code == 2 and one_line_error(err).startswith(f"voiopt: error: --warm-start: {bad}: positions[1]: [4, 4]")
-    assert run(capsys, "evaluate", CASE, str(result))[0] == 0  # its own instance: fine
+    assert run_cli(capsys, "evaluate", CASE, str(result))[0] == 0  # its own instance: fine
 
 
 def test_a_plan_or_result_given_as_an_instance_and_a_missing_command_get_one_line(capsys, tmp_path):
     plan = tmp_path / "p.json"
     plan.write_text(json.dumps(CASE_STUDY_PLAN))
     result = tmp_path / "r.json"
-    assert run(capsys, "solve", CASE, "--method", "greedy", "--quiet", "-o", str(result))[0] == 0
+    assert run_cli(capsys, "solve", CASE, "--method", "greedy", "--quiet", "-o", str(result))[0] == 0
     for path, what in ((plan, "a plan"), (result, "a result JSON")):
-        code, _, err = run(capsys, "validate", str(path))
+        code, _, err = run_cli(capsys, "validate", str(path))
         assert code == 2 and one_line_error(err) == (f"{path}: {what}, not an instance (an instance has area, "
                                                      "horizon, sensors and start)")
     with pytest.raises(SystemExit) as e:
@@ -210,7 +206,7 @@ def test_a_plan_or_result_given_as_an_instance_and_a_missing_command_get_one_lin
 
 def test_an_option_a_method_does_not_take_is_named_in_the_callers_words(capsys):
     """The command line lists its flags (only those the method takes), Python its keywords."""
-    code, _, err = run(capsys, "solve", CASE, "--gap", "0.1", "--quiet")  # dp, the default, has no MIP gap
+    code, _, err = run_cli(capsys, "solve", CASE, "--gap", "0.1", "--quiet")  # dp, the default, has no MIP gap
     line = one_line_error(err)
     assert code == 2 and line == ("voiopt: error: --gap: not an option of method 'dp' (on the command line it takes "
                                   "--time-limit, --memory-limit, --warm-start, --threads)")
@@ -221,12 +217,12 @@ def test_an_option_a_method_does_not_take_is_named_in_the_callers_words(capsys):
 
 def test_the_default_method_is_dp_and_milp_for_three_robots(capsys, tmp_path):
     three = tmp_path / "three.json"
-    code, text, _ = run(capsys, "generate", "--sensors", "2", "--horizon", "5", "--robots", "3", "--seed", "3")
+    code, text, _ = run_cli(capsys, "generate", "--sensors", "2", "--horizon", "5", "--robots", "3", "--seed", "3")
     assert code == 0
     three.write_text(text)
     for path, method in ((CASE, "dp"), (three, "milp")):
         out = tmp_path / f"{method}.json"
-        assert run(capsys, "solve", str(path), "--quiet", "-o", str(out))[0] == 0
+        assert run_cli(capsys, "solve", str(path), "--quiet", "-o", str(out))[0] == 0
         r = voiopt.load_result(out)
         assert r.method == method and r.status == "optimal"
     assert voiopt.solve(voiopt.load(three)).method == "milp" and voiopt.solve(voiopt.case_study()).method == "dp"
@@ -286,8 +282,8 @@ def test_long_names_and_large_seeds_are_kept(capsys, tmp_path):
     """An output name that fits beside its temporary file (241 bytes) is written; a seed beyond
     2**53 is used as written, not rounded through a float."""
     out = tmp_path / ("a" * 236 + ".json")
-    assert run(capsys, "solve", CASE, "--method", "greedy", "-o", str(out), "--quiet")[0] == 0 and out.exists()
-    code, text, _ = run(capsys, "generate", "--seed", "9007199254740993")
+    assert run_cli(capsys, "solve", CASE, "--method", "greedy", "-o", str(out), "--quiet")[0] == 0 and out.exists()
+    code, text, _ = run_cli(capsys, "generate", "--seed", "9007199254740993")
     assert code == 0 and json.loads(text)["name"] == "n4-t30-seed9007199254740993"
 
 
@@ -322,50 +318,50 @@ def test_generator_seeds_and_counts_are_checked_by_the_api():
 
 def test_plot_names_the_file_of_a_result_it_cannot_read(capsys, tmp_path):
     result = tmp_path / "r.json"
-    assert run(capsys, "solve", CASE, "--method", "greedy", "-o", str(result), "--quiet")[0] == 0
+    assert run_cli(capsys, "solve", CASE, "--method", "greedy", "-o", str(result), "--quiet")[0] == 0
     d = json.loads(result.read_text())
     for objective in ("foo", None):
         result.write_text(json.dumps({**d, "objective": objective}))
-        code, _, err = run(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
+        code, _, err = run_cli(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
         assert code == 2 and f"{result}: objective: unknown objective" in one_line_error(err)
-    code, _, err = run(capsys, "plot", CASE, "-o", str(tmp_path / "p.png"))
+    code, _, err = run_cli(capsys, "plot", CASE, "-o", str(tmp_path / "p.png"))
     assert code == 2 and one_line_error(err) == f"voiopt: error: {CASE}: an instance, not a plan " \
                                                 "({positions, schedule}) or a result JSON"  # the file named once
     result.write_text("[1, 2]")
-    code, _, err = run(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
+    code, _, err = run_cli(capsys, "plot", str(result), "-o", str(tmp_path / "p.png"))
     assert code == 2 and "result: must be a JSON object, got list" in one_line_error(err)
     assert not (tmp_path / "p.png").exists()
 
 
 def test_bench_export_refuses_a_folder_in_a_file_s_place_before_writing_any(capsys, tmp_path):
     (tmp_path / "certificates.json").mkdir()
-    code, _, err = run(capsys, "bench", "export", "--out", str(tmp_path))
+    code, _, err = run_cli(capsys, "bench", "export", "--out", str(tmp_path))
     assert code == 2 and "certificates.json' is a directory" in one_line_error(err)
     assert [p.name for p in tmp_path.iterdir()] == ["certificates.json"]  # no instance written either
 
 
 def test_evaluate_says_when_a_result_has_no_plan(capsys, tmp_path):
     result = tmp_path / "r.json"
-    assert run(capsys, "solve", CASE, "--method", "greedy", "-o", str(result), "--quiet")[0] == 0
+    assert run_cli(capsys, "solve", CASE, "--method", "greedy", "-o", str(result), "--quiet")[0] == 0
     d = json.loads(result.read_text())
     del d["plan"]
     result.write_text(json.dumps(d))
-    code, _, err = run(capsys, "evaluate", CASE, str(result))
+    code, _, err = run_cli(capsys, "evaluate", CASE, str(result))
     assert code == 2 and f"{result}: a result without a plan field" in one_line_error(err)
 
 
 def test_bench_export_keeps_an_edited_copy_unless_told(capsys, tmp_path):
-    assert run(capsys, "bench", "export", "--out", str(tmp_path))[0] == 0
-    assert run(capsys, "bench", "export", "--out", str(tmp_path))[0] == 0  # the same files again: fine
+    assert run_cli(capsys, "bench", "export", "--out", str(tmp_path))[0] == 0
+    assert run_cli(capsys, "bench", "export", "--out", str(tmp_path))[0] == 0  # the same files again: fine
     mine = tmp_path / "case-study.json"
     edited = json.loads(mine.read_text())
     edited["horizon"] += 1
     mine.write_text(json.dumps(edited))
     before = {p.name: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
-    code, _, err = run(capsys, "bench", "export", "--out", str(tmp_path))
+    code, _, err = run_cli(capsys, "bench", "export", "--out", str(tmp_path))
     assert code == 2 and "case-study.json already holds another instance" in one_line_error(err)
     assert {p.name: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before  # nothing written
-    assert run(capsys, "bench", "export", "--out", str(tmp_path), "--overwrite")[0] == 0
+    assert run_cli(capsys, "bench", "export", "--out", str(tmp_path), "--overwrite")[0] == 0
     assert json.loads(mine.read_text())["horizon"] == edited["horizon"] - 1
 
 
@@ -376,11 +372,11 @@ def test_plot_finds_the_instance_beside_the_result_or_in_the_folder_above(capsys
     result = tmp_path / "report" / "results" / "dock__greedy.json"
     voiopt.solve(dock, method="greedy").save(result)
     monkeypatch.chdir(tmp_path)  # no ./instances here
-    assert run(capsys, "plot", str(result), "-o", "p.png")[0] == 0 and (tmp_path / "p.png").stat().st_size > 1000
+    assert run_cli(capsys, "plot", str(result), "-o", "p.png")[0] == 0 and (tmp_path / "p.png").stat().st_size > 1000
     (tmp_path / "report" / "dock.json").unlink()
     voiopt.solve(dock, method="greedy").save(tmp_path / "dock.json")  # a result named like the instance: not taken for it
     for path in (result, tmp_path / "dock.json"):
-        code, _, err = run(capsys, "plot", str(path), "-o", "q.png")
+        code, _, err = run_cli(capsys, "plot", str(path), "-o", "q.png")
         line = one_line_error(err)
         assert code == 2 and "--instance: give the instance of result 'dock' (no dock.json beside the result" in line
         assert ("but the result itself" in line) == (path.name == "dock.json")
@@ -395,7 +391,7 @@ def test_plot_finds_the_instance_in_an_instances_folder_beside_the_result(capsys
     voiopt.solve(dock, method="greedy").save(tmp_path / "clone" / "dock-greedy.json")
     (tmp_path / "elsewhere").mkdir()
     monkeypatch.chdir(tmp_path / "elsewhere")
-    code, out, err = run(capsys, "plot", str(tmp_path / "clone" / "dock-greedy.json"), "-o", "p.png")
+    code, out, err = run_cli(capsys, "plot", str(tmp_path / "clone" / "dock-greedy.json"), "-o", "p.png")
     assert code == 0 and (tmp_path / "elsewhere" / "p.png").stat().st_size > 1000, err
 
 
@@ -409,26 +405,26 @@ def test_plot_refuses_a_result_that_its_instance_does_not_give(capsys, tmp_path,
     (tmp_path / "in").mkdir()
     (tmp_path / "in" / "rho.json").write_text(json.dumps(edited))
     monkeypatch.chdir(tmp_path)  # no ./instances here
-    assert run(capsys, "solve", "in/rho.json", "-o", "r.json", "--quiet")[0] == 0
-    code, _, err = run(capsys, "plot", "r.json", "-o", "p.png")
+    assert run_cli(capsys, "solve", "in/rho.json", "-o", "r.json", "--quiet")[0] == 0
+    code, _, err = run_cli(capsys, "plot", "r.json", "-o", "p.png")
     line = one_line_error(err)
     assert code == 2 and "its plan on the built-in case study does not give what the result says" in line
     assert "--instance" in line and not (tmp_path / "p.png").exists()
-    assert run(capsys, "plot", "r.json", "--instance", "in/rho.json", "-o", "p.png")[0] == 0
-    code, out, err = run(capsys, "evaluate", CASE, "r.json")
+    assert run_cli(capsys, "plot", "r.json", "--instance", "in/rho.json", "-o", "p.png")[0] == 0
+    code, out, err = run_cli(capsys, "evaluate", CASE, "r.json")
     assert code == 0 and "note: r.json says otherwise (min-voi" in err and "mean-min-voi" in out
     forged = json.loads((tmp_path / "r.json").read_text())
     forged["value"] *= 2
     (tmp_path / "f.json").write_text(json.dumps(forged))
-    code, _, err = run(capsys, "plot", "f.json", "--instance", "in/rho.json", "-o", "f.png")
+    code, _, err = run_cli(capsys, "plot", "f.json", "--instance", "in/rho.json", "-o", "f.png")
     assert code == 2 and "mean-min-voi" in one_line_error(err) and "stored" in err
-    code, _, err = run(capsys, "evaluate", "in/rho.json", "f.json")  # the value alone forged: noted too
+    code, _, err = run_cli(capsys, "evaluate", "in/rho.json", "f.json")  # the value alone forged: noted too
     assert code == 0 and "note: f.json says otherwise (mean-min-voi" in err
     forged["metrics"]["max-aoi"] = 10**400  # a JSON integer too large for a float: no traceback
     (tmp_path / "f.json").write_text(json.dumps(forged))
-    code, _, err = run(capsys, "evaluate", "in/rho.json", "f.json")
+    code, _, err = run_cli(capsys, "evaluate", "in/rho.json", "f.json")
     assert code == 0 and "note: f.json says otherwise (max-aoi an integer of 401 digits" in err and "Traceback" not in err
-    code, _, err = run(capsys, "plot", "f.json", "--instance", "in/rho.json", "-o", "f.png")
+    code, _, err = run_cli(capsys, "plot", "f.json", "--instance", "in/rho.json", "-o", "f.png")
     assert code == 2 and "max-aoi an integer of 401 digits stored" in one_line_error(err)
 
 
@@ -442,12 +438,12 @@ def test_a_command_stopped_as_a_whole_says_whether_it_kept_results(capsys, monke
         raise Interrupted(2)
 
     monkeypatch.setattr("voiopt.cli.main.instance_mod.load", stopped)
-    code, out, err = run(capsys, "solve", CASE, "-o", str(tmp_path / "r.json"))
+    code, out, err = run_cli(capsys, "solve", CASE, "-o", str(tmp_path / "r.json"))
     assert (code, out) == (130, "")
     assert one_line_error(err) == "voiopt: interrupted (SIGINT); the command did not finish"
     assert not (tmp_path / "r.json").exists()
     monkeypatch.setattr(gaps, "gap_report", stopped)
-    code, out, err = run(capsys, "gap-report", CASE, "-o", str(tmp_path / "report"))
+    code, out, err = run_cli(capsys, "gap-report", CASE, "-o", str(tmp_path / "report"))
     assert (code, out) == (130, "")
     assert one_line_error(err) == "voiopt: interrupted (SIGINT); finished results are kept"
 
@@ -455,7 +451,7 @@ def test_a_command_stopped_as_a_whole_says_whether_it_kept_results(capsys, monke
 def test_a_progress_line_in_a_log_keeps_its_counts(capsys, tmp_path):
     """Off a terminal the bar's last line is written once, and at 80 columns it was cut to
     '1000000/1…' (a review); it is now as wide as it needs."""
-    code, _, err = run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "123456", "-o", str(tmp_path / "q.json"))
+    code, _, err = run_cli(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "123456", "-o", str(tmp_path / "q.json"))
     assert code == 0 and "123456/123456" in err and "greedy" in err
 
 
@@ -478,19 +474,19 @@ def test_plot_draws_a_plan_file_as_evaluate_reads_it(capsys, tmp_path):
     """plot took only results; a plan file, or a submission of a plan with its instance and
     objective (VoI-Lib's form), failed on a missing 'objective' or 'method' (a review)."""
     plan = str(ROOT / "instances" / "case-study.plan.json")
-    code, _, err = run(capsys, "plot", plan, "-o", str(tmp_path / "p.png"))
+    code, _, err = run_cli(capsys, "plot", plan, "-o", str(tmp_path / "p.png"))
     assert code == 2 and "--instance: give the instance of this plan (it names none)" in one_line_error(err)
-    assert run(capsys, "plot", plan, "--instance", CASE, "-o", str(tmp_path / "p.png"))[0] == 0
+    assert run_cli(capsys, "plot", plan, "--instance", CASE, "-o", str(tmp_path / "p.png"))[0] == 0
     assert (tmp_path / "p.png").stat().st_size > 5000
     sub = tmp_path / "sub.json"
     sub.write_text(json.dumps({"instance": "case-study", "objective": "max-aoi", "plan": CASE_STUDY_PLAN}))
-    assert run(capsys, "plot", str(sub), "-o", str(tmp_path / "s.png"))[0] == 0  # found by its name
+    assert run_cli(capsys, "plot", str(sub), "-o", str(tmp_path / "s.png"))[0] == 0  # found by its name
     sub.write_text(json.dumps({"instance": "case-study", "objective": "best", "plan": CASE_STUDY_PLAN}))
-    code, _, err = run(capsys, "plot", str(sub), "-o", str(tmp_path / "b.png"))
+    code, _, err = run_cli(capsys, "plot", str(sub), "-o", str(tmp_path / "b.png"))
     assert code == 2 and one_line_error(err).endswith(f'{sub}: objective: must be one of min-voi, mean-min-voi, '
                                                       'max-aoi, mean-max-aoi, got "best"')
     sub.write_text(json.dumps({"instance": "elsewhere", "plan": CASE_STUDY_PLAN}))
-    code, _, err = run(capsys, "plot", str(sub), "--instance", CASE, "-o", str(tmp_path / "e.png"))
+    code, _, err = run_cli(capsys, "plot", str(sub), "--instance", CASE, "-o", str(tmp_path / "e.png"))
     assert code == 2 and "the plan is for 'elsewhere', the instance is 'case-study'" in one_line_error(err)
 
 
@@ -499,7 +495,7 @@ def test_a_warm_start_of_another_instance_names_the_option_and_the_file(capsys, 
     voiopt.solve(voiopt.load(ROOT / "instances" / "dock.json"), method="greedy").save(other)
     for path, why in ((other, 'a result for instance "dock"'), (tmp_path / "missing.json", "no such file"),
                       (Path(CASE), "an instance, not a plan")):
-        code, _, err = run(capsys, "solve", CASE, "--method", "greedy", "--warm-start", str(path), "--quiet")
+        code, _, err = run_cli(capsys, "solve", CASE, "--method", "greedy", "--warm-start", str(path), "--quiet")
         assert code == 2 and one_line_error(err).startswith(f"voiopt: error: --warm-start: {path}: {why}"), err
 
 
@@ -507,17 +503,17 @@ def test_a_file_is_named_once_and_as_given(capsys, monkeypatch, tmp_path):
     """'--warm-start ./missing.json' read '--warm-start: ./missing.json: missing.json: no such file':
     the reader named the file as a normalised path, so the option's prefix did not recognise it."""
     monkeypatch.chdir(tmp_path)
-    code, _, err = run(capsys, "solve", CASE, "--method", "greedy", "--warm-start", "./missing.json", "--quiet")
+    code, _, err = run_cli(capsys, "solve", CASE, "--method", "greedy", "--warm-start", "./missing.json", "--quiet")
     assert code == 2 and one_line_error(err) == "voiopt: error: --warm-start: ./missing.json: no such file"
-    code, _, err = run(capsys, "solve", "./missing.json", "--quiet")
+    code, _, err = run_cli(capsys, "solve", "./missing.json", "--quiet")
     assert code == 2 and one_line_error(err) == "voiopt: error: ./missing.json: no such file"
 
 
 def test_a_seed_beyond_the_random_streams_64_bits_is_refused(capsys):
     """Q-learning's stream keeps 64 bits of the seed: 2**64 would silently rerun seed 0."""
-    code, _, err = run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "10", "--seed", str(2**64))
+    code, _, err = run_cli(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "10", "--seed", str(2**64))
     assert code == 2 and "seed: must be below 2**64" in one_line_error(err)
-    assert run(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "10", "--seed", str(2**64 - 1),
+    assert run_cli(capsys, "solve", CASE, "--method", "qlearning", "--episodes", "10", "--seed", str(2**64 - 1),
                "--quiet")[0] == 0
 
 
@@ -526,6 +522,6 @@ def test_a_result_with_an_unknown_status_is_refused(capsys, tmp_path):
     d["status"] = "great"
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps(d))
-    code, _, err = run(capsys, "plot", str(bad), "-o", str(tmp_path / "x.png"))  # plot draws the status in its title
+    code, _, err = run_cli(capsys, "plot", str(bad), "-o", str(tmp_path / "x.png"))  # plot draws the status in its title
     assert code == 2 and "status: must be one of optimal" in one_line_error(err) and '"great"' in err
     assert not (tmp_path / "x.png").exists()

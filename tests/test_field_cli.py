@@ -7,9 +7,9 @@ import json
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, run_cli
 from oracles import model_oracle as oracle
-from test_cli import one_line_error, run
+from test_cli import one_line_error
 
 import voiopt
 from voiopt.errors import OptionError
@@ -68,11 +68,11 @@ def test_bad_generator_options(kwargs, message):
 
 
 def test_generate_command_with_fields(capsys, tmp_path):
-    code, out, _ = run(capsys, "generate", "--sensors", "3", "--blocked-fraction", "0.2", "--end", "start",
+    code, out, _ = run_cli(capsys, "generate", "--sensors", "3", "--blocked-fraction", "0.2", "--end", "start",
                        "--max-moves", "9", "--seed", "4")
     d = json.loads(out)
     assert code == 0 and d["end"] == d["start"] and d["max_moves"] == 9 and len(d["blocked"]) == round(0.2 * 36)
-    code, out, _ = run(capsys, "generate", "--preset", "factory", "--sensors", "11", "--count", "2", "--out",
+    code, out, _ = run_cli(capsys, "generate", "--preset", "factory", "--sensors", "11", "--count", "2", "--out",
                        str(tmp_path))
     assert code == 0
     for path in sorted(tmp_path.glob("*.json")):
@@ -89,7 +89,7 @@ def test_generate_command_with_fields(capsys, tmp_path):
     (["generate", "--max-moves", "-1"], "voiopt: error: max-moves: must be an integer >= 0, got -1"),
 ])
 def test_generate_errors_are_one_line(capsys, argv, message):
-    code, out, err = run(capsys, *argv)
+    code, out, err = run_cli(capsys, *argv)
     assert code == 2 and out == ""
     assert one_line_error(err) == message
 
@@ -99,13 +99,13 @@ def test_impossible_instance_and_illegal_plan_exit_2(capsys, tmp_path):
     d["max_moves"] = 15
     tight = tmp_path / "dock-tight.json"
     tight.write_text(json.dumps(d))
-    code, _, err = run(capsys, "validate", str(tight))
+    code, _, err = run_cli(capsys, "validate", str(tight))
     assert code == 2
     assert one_line_error(err) == (f"{tight}: end: [4, 4] is not reachable within 15 moves (max_moves is 15): it is "
                                    "16 moves from start [0, 0] around the blocked points")
     plan = tmp_path / "plan.json"
     plan.write_text(json.dumps({"positions": [[0, 0]] * 30, "schedule": [None] * 30}))
-    code, _, err = run(capsys, "evaluate", DOCK, str(plan))
+    code, _, err = run_cli(capsys, "evaluate", DOCK, str(plan))
     assert code == 2
     assert one_line_error(err) == f"voiopt: error: {plan}: positions[29]: must equal end [4, 4] in the last slot, got [0, 0]"
 
@@ -120,7 +120,7 @@ def test_shipped_examples(capsys, tmp_path):
     assert metrics[shipped.objective] == pytest.approx(shipped.value, rel=1e-12)
     assert shipped.bound >= shipped.value
     out = tmp_path / "factory.png"
-    code, _, _ = run(capsys, "plot", str(ROOT / "instances" / "factory.result.json"), "--instance", FACTORY,
+    code, _, _ = run_cli(capsys, "plot", str(ROOT / "instances" / "factory.result.json"), "--instance", FACTORY,
                      "-o", str(out))
     assert code == 0 and out.stat().st_size > 10_000
     assert np.isfinite(metrics["mean-min-voi"])
@@ -129,15 +129,15 @@ def test_shipped_examples(capsys, tmp_path):
 def test_validate_and_generate_say_when_a_sensor_is_never_uploaded(capsys, tmp_path):
     """A budget too short for a sensor's round trip leaves it stranded: every plan's value is
     then fixed by its ageing packet, so the user is told (exit 0: the instance is legal)."""
-    code, out, err = run(capsys, "generate", "--preset", "factory", "--sensors", "6", "--horizon", "30",
+    code, out, err = run_cli(capsys, "generate", "--preset", "factory", "--sensors", "6", "--horizon", "30",
                          "--max-moves", "20", "--count", "2", "--seed", "1", "--out", str(tmp_path / "f"))
     assert code == 0 and "note: 2 of 2 network(s)" in err and "voiopt validate names them" in err
     path = sorted((tmp_path / "f").glob("*.json"))[0]
     inst = voiopt.load(path)
     stranded = lattice.stranded_sensors(inst)
-    code, out, _ = run(capsys, "validate", str(path))
+    code, out, _ = run_cli(capsys, "validate", str(path))
     assert code == 0 and out.startswith("ok (warning: sensors ") and f"{stranded} are never uploaded" in out
-    code, _, err = run(capsys, "generate", "--preset", "factory", "--count", "2", "--seed", "1", "--out",
+    code, _, err = run_cli(capsys, "generate", "--preset", "factory", "--count", "2", "--seed", "1", "--out",
                        str(tmp_path / "g"))  # the preset's own budget reaches every sensor
     assert code == 0 and "note:" not in err
-    assert run(capsys, "validate", str(ROOT / "instances" / "dock.json"))[:2] == (0, "ok\n")
+    assert run_cli(capsys, "validate", str(ROOT / "instances" / "dock.json"))[:2] == (0, "ok\n")

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import highspy
 import pytest
-from conftest import ROOT, solve_model_file
-from test_cli import one_line_error, run
+from conftest import ROOT, run_cli, solve_model_file
+from test_cli import one_line_error
 
 import voiopt
 from voiopt.solvers.milp.export import covering_levels, export
@@ -74,21 +74,21 @@ def test_covering_problem_export_is_feasible_exactly_up_to_the_optimum(tmp_path)
 
 def test_import_solution_command_and_errors(capsys, tmp_path):
     model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
-    assert run(capsys, "export", str(DOCK), str(model))[0] == 0
+    assert run_cli(capsys, "export", str(DOCK), str(model))[0] == 0
     solve_model_file(model, solution)
     out = tmp_path / "r.json"
-    code, text, _ = run(capsys, "import-solution", str(DOCK), str(model), str(solution), "-o", str(out))
+    code, text, _ = run_cli(capsys, "import-solution", str(DOCK), str(model), str(solution), "-o", str(out))
     assert code == 0 and "dock  import  mean-min-voi: feasible" in text
     assert voiopt.evaluate(voiopt.load(DOCK), voiopt.load_plan(out)) == voiopt.load_result(out).metrics
     other = tmp_path / "cs.mps"
-    run(capsys, "export", str(ROOT / "instances" / "case-study.json"), str(other))
-    code, _, err = run(capsys, "import-solution", str(DOCK), str(other), str(solution), "-o", str(out))
+    run_cli(capsys, "export", str(ROOT / "instances" / "case-study.json"), str(other))
+    code, _, err = run_cli(capsys, "import-solution", str(DOCK), str(other), str(solution), "-o", str(out))
     assert code == 2 and "was it exported from another instance?" in one_line_error(err)
     junk = tmp_path / "junk.sol"
     junk.write_text("nothing here\n")
-    code, _, err = run(capsys, "import-solution", str(DOCK), str(model), str(junk), "-o", str(out))
+    code, _, err = run_cli(capsys, "import-solution", str(DOCK), str(model), str(junk), "-o", str(out))
     assert code == 2 and "no primal solution in it" in one_line_error(err)
-    code, _, err = run(capsys, "export", str(DOCK), str(model), "--covering-level", "1")
+    code, _, err = run_cli(capsys, "export", str(DOCK), str(model), "--covering-level", "1")
     assert code == 2 and "covering problems exist for min-voi and max-aoi" in one_line_error(err)
 
 
@@ -113,7 +113,7 @@ def test_a_solution_that_is_not_one_plan_is_refused(capsys, tmp_path):
     stands, every value a number: otherwise one line naming the column or the slot, exit 2,
     and no result (before, the robot everywhere at once was read as the plan of its first point)."""
     model, solution = tmp_path / "m.mps", tmp_path / "m.sol"
-    assert run(capsys, "export", str(DOCK), str(model))[0] == 0
+    assert run_cli(capsys, "export", str(DOCK), str(model))[0] == 0
     solve_model_file(model, solution)
     values = {p[0]: p[1] for p in (ln.split() for ln in solution.read_text().splitlines())
               if len(p) == 2 and p[0][:2] in ("x_", "y_")}
@@ -129,7 +129,7 @@ def test_a_solution_that_is_not_one_plan_is_refused(capsys, tmp_path):
         path = tmp_path / "edited.sol"
         path.write_text(body)
         out = tmp_path / "r.json"
-        code, _, err = run(capsys, "import-solution", str(DOCK), str(model), str(path), "-o", str(out))
+        code, _, err = run_cli(capsys, "import-solution", str(DOCK), str(model), str(path), "-o", str(out))
         assert code == 2 and not out.exists()
         return one_line_error(err)
 
@@ -147,8 +147,8 @@ def test_a_solution_that_is_not_one_plan_is_refused(capsys, tmp_path):
     assert "2 uploads (y = 1); a slot has one at most" in edited(**dict.fromkeys(two, "1"))
     near = tmp_path / "near.sol"  # within Gurobi's and CPLEX's integrality tolerance
     near.write_text("".join(f"{k} {'0.99999' if k == x1 else v}\n" for k, v in values.items()))
-    assert run(capsys, "import-solution", str(DOCK), str(model), str(near), "-o", str(tmp_path / "r.json"))[0] == 0
-    code, _, err = run(capsys, "import-solution", str(DOCK), str(tmp_path), str(solution), "-o", str(tmp_path / "r.json"))
+    assert run_cli(capsys, "import-solution", str(DOCK), str(model), str(near), "-o", str(tmp_path / "r.json"))[0] == 0
+    code, _, err = run_cli(capsys, "import-solution", str(DOCK), str(tmp_path), str(solution), "-o", str(tmp_path / "r.json"))
     assert code == 2 and "MODEL" in one_line_error(err) and "a folder, not a file" in err
 
 

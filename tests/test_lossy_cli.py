@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import ROOT
+from conftest import ROOT, run_cli
 
 import voiopt
 from voiopt.cli.lossy import parse_links
@@ -18,20 +18,16 @@ CASE = str(ROOT / "instances" / "case-study.json")
 PLAN = str(ROOT / "instances" / "case-study.plan.json")
 
 
-def run(capsys, *argv):
-    code = main(list(argv))
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def test_generate_links_adds_them_and_changes_nothing_else(capsys):
-    code, plain, _ = run(capsys, "generate", "--sensors", "3", "--seed", "4")
-    code2, lossy, _ = run(capsys, "generate", "--sensors", "3", "--seed", "4", "--links", "rayleigh:21.5")
+    code, plain, _ = run_cli(capsys, "generate", "--sensors", "3", "--seed", "4")
+    code2, lossy, _ = run_cli(capsys, "generate", "--sensors", "3", "--seed", "4", "--links", "rayleigh:21.5")
     assert code == code2 == 0
     a, b = json.loads(plain), json.loads(lossy)
     assert b.pop("links") == {"model": "rayleigh", "snr_threshold_db": 21.5}
     assert a == b
-    code, out, _ = run(capsys, "generate", "--preset", "factory", "--sensors", "2", "--links", "bernoulli:0.9")
+    code, out, _ = run_cli(capsys, "generate", "--preset", "factory", "--sensors", "2", "--links", "bernoulli:0.9")
     assert code == 0 and json.loads(out)["links"] == {"model": "bernoulli", "success": 0.9}
 
 
@@ -51,30 +47,30 @@ def test_evaluate_reports_exact_expectations_labelled(capsys, tmp_path):
     inst = voiopt.load(CASE)
     path = tmp_path / "lossy.json"
     path.write_text(json.dumps(inst.to_dict() | {"links": {"model": "bernoulli", "success": 0.5}}))
-    code, out, _ = run(capsys, "evaluate", str(path), PLAN, "--json")
+    code, out, _ = run_cli(capsys, "evaluate", str(path), PLAN, "--json")
     assert code == 0
     d = json.loads(out)
     want = expected_metrics(voiopt.load(path), voiopt.load_plan(PLAN))
     assert d["metrics"] == want and d["expected"] is True and d["evaluation"] == "exact"
     assert d["metrics"] != voiopt.evaluate(inst, voiopt.load_plan(PLAN))
-    code, out, _ = run(capsys, "evaluate", str(path), PLAN)
+    code, out, _ = run_cli(capsys, "evaluate", str(path), PLAN)
     assert code == 0 and "expected" in out and "exact" in out
 
 
 def test_evaluate_without_losses_is_unchanged(capsys, tmp_path):
-    code, out, _ = run(capsys, "evaluate", CASE, PLAN, "--json")
+    code, out, _ = run_cli(capsys, "evaluate", CASE, PLAN, "--json")
     d = json.loads(out)
     assert set(d) == {"instance", "metrics"} and d["metrics"] == voiopt.evaluate(voiopt.load(CASE), voiopt.load_plan(PLAN))
     path = tmp_path / "ones.json"
     path.write_text(json.dumps(voiopt.load(CASE).to_dict() | {"links": {"model": "bernoulli", "success": 1}}))
-    code, out2, _ = run(capsys, "evaluate", str(path), PLAN, "--json")
+    code, out2, _ = run_cli(capsys, "evaluate", str(path), PLAN, "--json")
     assert json.loads(out2) == d
 
 
 def test_solve_on_a_lossy_instance_writes_the_labelled_result(capsys, tmp_path):
     path = tmp_path / "lossy.json"
     path.write_text(json.dumps(voiopt.load(CASE).to_dict() | {"links": {"model": "rayleigh", "snr_threshold_db": 28}}))
-    code, out, _ = run(capsys, "solve", str(path), "--method", "greedy", "-o", str(tmp_path / "r.json"))
+    code, out, _ = run_cli(capsys, "solve", str(path), "--method", "greedy", "-o", str(tmp_path / "r.json"))
     assert code == 0 and "expected, exact" in out and "expected objectives over the upload outcomes" in out
     r = json.loads((tmp_path / "r.json").read_text())
     assert r["evaluation"] == "exact" and r["status"] == "feasible"
@@ -84,8 +80,8 @@ def test_solve_on_a_lossy_instance_writes_the_labelled_result(capsys, tmp_path):
 def test_plot_of_a_lossy_result_checks_its_expected_metrics(capsys, tmp_path):
     path = tmp_path / "lossy.json"
     path.write_text(json.dumps(voiopt.load(CASE).to_dict() | {"links": {"model": "bernoulli", "success": 0.6}}))
-    assert run(capsys, "solve", str(path), "--method", "greedy", "-o", str(tmp_path / "r.json"))[0] == 0
-    code, out, _ = run(capsys, "plot", str(tmp_path / "r.json"), "--instance", str(path), "-o", str(tmp_path / "r.png"))
+    assert run_cli(capsys, "solve", str(path), "--method", "greedy", "-o", str(tmp_path / "r.json"))[0] == 0
+    code, out, _ = run_cli(capsys, "plot", str(tmp_path / "r.json"), "--instance", str(path), "-o", str(tmp_path / "r.png"))
     assert code == 0 and (tmp_path / "r.png").stat().st_size > 0
-    code, _, err = run(capsys, "plot", str(tmp_path / "r.json"), "--instance", CASE, "-o", str(tmp_path / "s.png"))
+    code, _, err = run_cli(capsys, "plot", str(tmp_path / "r.json"), "--instance", CASE, "-o", str(tmp_path / "s.png"))
     assert code == 2 and "does not give what the result says" in err  # the lossless instance: other values

@@ -8,7 +8,8 @@ import json
 import warnings
 
 import pytest
-from test_cli import one_line_error, run
+from conftest import run_cli
+from test_cli import one_line_error
 
 import voiopt
 from voiopt.cli import validate as cli_validate
@@ -33,7 +34,7 @@ def test_a_penalty_that_makes_no_sense_is_refused(penalty, message):
 
 
 def test_quiet_and_verbose_together_are_refused(capsys, tmp_path):
-    code, out, err = run(capsys, "solve", "instances/case-study.json", "--quiet", "--verbose")
+    code, out, err = run_cli(capsys, "solve", "instances/case-study.json", "--quiet", "--verbose")
     assert code == 2 and out == "" and "--quiet, --verbose: give one" in one_line_error(err)
 
 
@@ -48,7 +49,7 @@ def test_generate_refuses_sizes_before_drawing(capsys, monkeypatch, argv, messag
     def drawn(*a, **k):
         raise AssertionError("drew a network that would be refused")
     monkeypatch.setattr(fields, "seeded", drawn)
-    code, out, err = run(capsys, "generate", *argv)
+    code, out, err = run_cli(capsys, "generate", *argv)
     assert code == 2 and out == "" and message in one_line_error(err)
 
 
@@ -56,14 +57,14 @@ def test_a_byte_order_mark_is_accepted(tmp_path, capsys):
     path = tmp_path / "bom.json"
     path.write_bytes(b"\xef\xbb\xbf" + json.dumps(case_study().to_dict()).encode())
     assert voiopt.load(path).to_dict() == case_study().to_dict()
-    code, out, _ = run(capsys, "validate", str(path))
+    code, out, _ = run_cli(capsys, "validate", str(path))
     assert code == 0 and out.strip() == "ok"
 
 
 def test_a_truncated_file_gets_a_whole_phrase(tmp_path, capsys):
     path = tmp_path / "cut.json"
     path.write_text('{"name": "case-stu')
-    code, _, err = run(capsys, "validate", str(path))
+    code, _, err = run_cli(capsys, "validate", str(path))
     assert code == 2
     assert one_line_error(err).endswith("invalid JSON: Unterminated string starting at line 1, column 10")
 
@@ -73,7 +74,7 @@ def test_a_duplicated_sensor_is_a_one_line_warning(tmp_path, capsys):
     d["sensors"].append(dict(d["sensors"][1]))
     path = tmp_path / "twice.json"
     path.write_text(json.dumps(d))
-    code, out, err = run(capsys, "validate", str(path))
+    code, out, err = run_cli(capsys, "validate", str(path))
     assert code == 0 and out.strip() == "ok"
     assert err.strip() == f"voiopt: warning: {path}: sensors[3]: same position and parameters as sensors[1] " \
                           "(both are kept; is it a copy?)"
@@ -104,7 +105,7 @@ def _corridor(tmp_path):
 
 
 def test_validate_rejects_three_robots_that_cannot_swap_in_a_corridor(tmp_path, capsys):
-    code, out, err = run(capsys, "validate", str(_corridor(tmp_path)))
+    code, out, err = run_cli(capsys, "validate", str(_corridor(tmp_path)))
     assert code == 2 and out == "" and "robots: no legal joint plan" in one_line_error(err)
 
 
@@ -112,10 +113,10 @@ def test_validate_says_how_it_decided_an_open_fleet_or_that_it_could_not(tmp_pat
     robots = [{"start": [0.0, 0.0], "end": [20.0, 20.0]}, {"start": [20.0, 20.0], "end": [0.0, 0.0]},
               {"start": [10.0, 0.0], "end": [10.0, 20.0]}]
     path = _fleet(tmp_path / "open.json", 20, robots, 100)
-    code, out, _ = run(capsys, "validate", str(path))
+    code, out, _ = run_cli(capsys, "validate", str(path))
     assert code == 0 and out.startswith("ok (3 robots; greedy found a legal joint plan in ")
     # without the pairs' proof, the corridor is undecided: the walker gives up, and validate says so
     monkeypatch.setattr(joint, "pairs_possible", lambda *a: None)
-    code, out, _ = run(capsys, "validate", str(_corridor(tmp_path)))
+    code, out, _ = run_cli(capsys, "validate", str(_corridor(tmp_path)))
     assert code == cli_validate.UNDECIDED == 3 and out.startswith("skipped: the joint check of 3 robots"), out
     assert "undecided" in out and len(out.strip().splitlines()) == 1

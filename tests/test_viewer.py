@@ -11,13 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import field_instances, fleet_instances, tiny_instances
+from conftest import field_instances, fleet_instances, run_cli, tiny_instances
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from oracles import model_oracle as oracle
 
 import voiopt
-from voiopt.cli.main import main
 from voiopt.core.plan import Plan
 from voiopt.viewer import page
 from voiopt.viewer.story import Entry, story
@@ -28,13 +27,6 @@ CASE_PLAN = ROOT / "instances" / "case-study.plan.json"
 CASES = tiny_instances(8) + field_instances(8) + fleet_instances(6)
 
 
-def run(capsys, *argv):
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as e:  # argparse's own errors: one line, exit 2
-        code = e.code
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def one_line_error(err: str) -> str:
@@ -78,7 +70,7 @@ def test_the_story_is_the_simulation_of_any_legal_plan(k, seed):
 
 def test_the_page_is_self_contained(capsys, tmp_path):
     out = tmp_path / "cs.html"
-    assert run(capsys, "show", CASE_PLAN, "--instance", CASE, "-o", out)[0] == 0
+    assert run_cli(capsys, "show", CASE_PLAN, "--instance", CASE, "-o", out)[0] == 0
     html = out.read_text()
     assert not re.search(r"https?:|//[a-z0-9.-]+\.[a-z]{2,}/|@import|\burl\(", html, re.I)
     assert not re.search(r"<(script|img|link|iframe)[^>]*\b(src|href)\s*=", html, re.I)
@@ -92,7 +84,7 @@ def test_results_side_by_side_and_gap_labels(capsys, tmp_path):
     raw = json.loads((tmp_path / "dp.json").read_text())
     raw["bound_kind"] = "information-relaxation"  # a statistical bound (MODEL.md section 11)
     (tmp_path / "ir.json").write_text(json.dumps(raw))
-    code, out, _ = run(capsys, "show", tmp_path / "dp.json", tmp_path / "sp.json", tmp_path / "ir.json", "--instance", CASE,
+    code, out, _ = run_cli(capsys, "show", tmp_path / "dp.json", tmp_path / "sp.json", tmp_path / "ir.json", "--instance", CASE,
                        "-o", tmp_path / "p.html")
     assert code == 0 and "wrote" in out
     rs = embedded((tmp_path / "p.html").read_text())["results"]
@@ -108,7 +100,7 @@ def test_a_monte_carlo_value_is_labelled_with_its_interval_and_samples(capsys, t
     raw = json.loads((tmp_path / "sp.json").read_text())
     raw.update(evaluation="monte-carlo", samples=500, value_ci=[raw["value"] * 0.9, raw["value"] * 1.1])
     (tmp_path / "mc.json").write_text(json.dumps(raw))
-    assert run(capsys, "show", tmp_path / "mc.json", "--instance", CASE, "-o", tmp_path / "p.html")[0] == 0
+    assert run_cli(capsys, "show", tmp_path / "mc.json", "--instance", CASE, "-o", tmp_path / "p.html")[0] == 0
     (r,) = embedded((tmp_path / "p.html").read_text())["results"]
     assert (r["evaluation"], r["samples"], r["valueCi"]) == ("monte-carlo", 500, raw["value_ci"])
     assert r["run"] is None  # a lossless instance: nothing sampled
@@ -147,14 +139,14 @@ def test_bad_input_is_one_line_and_exit_2(capsys, tmp_path):
     ]
     cases.append(((tmp_path / "cs.json", "--instance", CASE, "--seed", "-1"), "--seed: must be an integer >= 0"))
     for argv, message in cases:
-        code, _, err = run(capsys, "show", *argv)
+        code, _, err = run_cli(capsys, "show", *argv)
         assert code == 2 and message in one_line_error(err), (argv, err)
     assert not list(tmp_path.glob("*.html"))
 
 
 def test_the_default_page_is_named_after_the_first_file(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    code, out, _ = run(capsys, "show", CASE_PLAN, "--instance", CASE)
+    code, out, _ = run_cli(capsys, "show", CASE_PLAN, "--instance", CASE)
     assert code == 0 and (tmp_path / "case-study.plan.html").is_file() and "case-study.plan.html" in out
 
 
@@ -162,7 +154,7 @@ def test_animate_writes_a_gif_of_t_frames(capsys, tmp_path):
     from PIL import Image
 
     out = tmp_path / "cs.gif"
-    code, text, _ = run(capsys, "plot", CASE_PLAN, "--instance", CASE, "--animate", "-o", out)
+    code, text, _ = run_cli(capsys, "plot", CASE_PLAN, "--instance", CASE, "--animate", "-o", out)
     assert code == 0 and "wrote" in text
     with Image.open(out) as gif:
         assert gif.n_frames == voiopt.load(CASE).horizon
@@ -185,16 +177,16 @@ def test_each_frame_shows_its_slot_number():
 
 
 def test_animate_bad_output_is_one_line(capsys, tmp_path, monkeypatch):
-    code, _, err = run(capsys, "plot", CASE_PLAN, "--instance", CASE, "--animate", "-o", tmp_path / "a.png")
+    code, _, err = run_cli(capsys, "plot", CASE_PLAN, "--instance", CASE, "--animate", "-o", tmp_path / "a.png")
     assert code == 2 and "an animation is written as .gif or .mp4" in one_line_error(err)
     monkeypatch.setattr("shutil.which", lambda name: None)
-    code, _, err = run(capsys, "plot", CASE_PLAN, "--instance", CASE, "--animate", "-o", tmp_path / "a.mp4")
+    code, _, err = run_cli(capsys, "plot", CASE_PLAN, "--instance", CASE, "--animate", "-o", tmp_path / "a.mp4")
     assert code == 2 and "needs ffmpeg, which is not installed here" in one_line_error(err)
     assert not list(tmp_path.iterdir())
 
 
 def test_plot_without_animate_is_unchanged(capsys, tmp_path):
-    assert run(capsys, "plot", CASE_PLAN, "--instance", CASE, "-o", tmp_path / "a.png")[0] == 0
+    assert run_cli(capsys, "plot", CASE_PLAN, "--instance", CASE, "-o", tmp_path / "a.png")[0] == 0
     assert (tmp_path / "a.png").stat().st_size > 1000
 
 
@@ -209,9 +201,9 @@ def test_a_policy_result_is_shown_as_one_sampled_run_with_its_failures(capsys, t
     lossy["horizon"] = 6
     (tmp_path / "case-study.json").write_text(json.dumps(lossy))
     out = tmp_path / "pol.json"
-    assert run(capsys, "solve", tmp_path / "case-study.json", "--method", "policy-dp", "-o", out, "--quiet")[0] == 0
+    assert run_cli(capsys, "solve", tmp_path / "case-study.json", "--method", "policy-dp", "-o", out, "--quiet")[0] == 0
     assert (tmp_path / "pol.policy.json").exists()
-    assert run(capsys, "show", out, "--seed", "0", "-o", tmp_path / "p.html")[0] == 0
+    assert run_cli(capsys, "show", out, "--seed", "0", "-o", tmp_path / "p.html")[0] == 0
     (r,) = embedded((tmp_path / "p.html").read_text())["results"]
     inst = voiopt.load(tmp_path / "case-study.json")
     u = sample_scenarios(inst, 1, 0)[0]

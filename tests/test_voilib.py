@@ -5,8 +5,9 @@ from __future__ import annotations
 import json
 
 import pytest
+from conftest import run_cli
 from oracles import model_oracle as oracle
-from test_cli import one_line_error, run
+from test_cli import one_line_error
 
 import voiopt
 from voiopt.core.result import Result
@@ -111,9 +112,9 @@ def test_score_rejects_a_value_that_is_not_finite(tmp_path, capsys, stated):
     path.write_text(json.dumps({**sub, "value": 0.5}).replace('"value": 0.5', f'"value": {stated}'))
     good = tmp_path / "good.json"
     good.write_text(json.dumps(sub))
-    code, out, err = run(capsys, "bench", "score", str(path), str(good))  # the good one still scored
+    code, out, err = run_cli(capsys, "bench", "score", str(path), str(good))  # the good one still scored
     assert code == 2 and "value: must be a finite number" in one_line_error(err) and "paper-n4-t30-000" in out
-    code, _, err = run(capsys, "bench", "score", str(path))
+    code, _, err = run_cli(capsys, "bench", "score", str(path))
     assert code == 2 and "value: must be a finite number" in one_line_error(err)
 
 
@@ -168,9 +169,9 @@ def test_score_needs_an_objective_but_no_value():
 
 
 def test_bench_commands(capsys, tmp_path):
-    code, out, _ = run(capsys, "bench", "list")
+    code, out, _ = run_cli(capsys, "bench", "list")
     assert code == 0 and "paper-n4-t30-000" in out and "factory-n12-t100-000" in out
-    code, _, _ = run(capsys, "bench", "export", "--out", str(tmp_path / "lib"))
+    code, _, _ = run_cli(capsys, "bench", "export", "--out", str(tmp_path / "lib"))
     assert code == 0
     exported = json.loads((tmp_path / "lib" / "certificates.json").read_text())
     for entry in exported["instances"].values():  # the shipped certificates, each with its provenance
@@ -179,25 +180,25 @@ def test_bench_commands(capsys, tmp_path):
     assert exported == CERTS and len(list((tmp_path / "lib").glob("*.json"))) == len(LIB) + 1
     honest = tmp_path / "honest.json"
     honest.write_text(json.dumps(_submission("walls-n4-t30-000", "max-aoi", "shortest-path")))
-    code, out, _ = run(capsys, "bench", "score", str(honest))
+    code, out, _ = run_cli(capsys, "bench", "score", str(honest))
     assert code == 0 and "walls-n4-t30-000" in out and "%" in out
     forged = tmp_path / "forged.json"
     d = _submission("walls-n4-t30-000", "max-aoi")
     d["value"] = d["value"] - 1
     forged.write_text(json.dumps(d))
-    code, out, err = run(capsys, "bench", "score", str(forged), str(honest))  # the good file is still scored
+    code, out, err = run_cli(capsys, "bench", "score", str(forged), str(honest))  # the good file is still scored
     assert code == 2 and "is not what its plan gives" in one_line_error(err) and "walls-n4-t30-000" in out
-    code, out, err = run(capsys, "bench", "score", str(forged), str(honest), str(forged))  # a line per bad file
+    code, out, err = run_cli(capsys, "bench", "score", str(forged), str(honest), str(forged))  # a line per bad file
     assert code == 2 and err.count("is not what its plan gives") == 2 and len(err.strip().splitlines()) == 2
     unknown = tmp_path / "unknown.json"
     unknown.write_text(json.dumps({**d, "instance": "nope"}))
-    code, _, err = run(capsys, "bench", "score", str(unknown))
+    code, _, err = run_cli(capsys, "bench", "score", str(unknown))
     assert code == 2 and f"is no VoI-Lib {voilib.VERSION} instance" in one_line_error(err)
 
 
 def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys):
     names = ["paper-n3-t10-000"]
-    code, _, _ = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
+    code, _, _ = run_cli(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
                      "--only", ",".join(names), "--quiet")
     assert code == 0
     made = json.loads((tmp_path / "certificates.json").read_text())
@@ -208,11 +209,11 @@ def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys)
             assert (got["status"], got["value"]) == (shipped["status"], shipped["value"])
     stamps = {p: p.stat().st_mtime_ns for p in (tmp_path / "work").iterdir()}
     assert len(stamps) == len(names) * len(OBJECTIVES) * 2 + 2  # the results, instances.sha256 and run.json
-    run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path), "--only",
+    run_cli(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path), "--only",
         ",".join(names), "--quiet")
     assert {p: p.stat().st_mtime_ns for p in (tmp_path / "work").iterdir()} == stamps  # resumed: nothing re-run
     for other in (["--time-limit", "120"], ["--threads", "2"]):  # another run's settings: not silently reused
-        code, out, err = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
+        code, out, err = run_cli(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
                              "--only", ",".join(names), "--quiet", *other)
         line = one_line_error(err)
         assert code == 2 and "--work: " in line and "holds a run with other settings" in line, line
@@ -251,14 +252,14 @@ def test_certify_rebuilds_the_shipped_certificates_and_resumes(tmp_path, capsys)
 def test_hostile_submissions_are_one_line_errors_naming_the_file(capsys, tmp_path, doc, message):
     path = tmp_path / "sub.json"
     path.write_text(json.dumps(doc))
-    code, out, err = run(capsys, "bench", "score", str(path))
+    code, out, err = run_cli(capsys, "bench", "score", str(path))
     line = one_line_error(err)
     assert code == 2 and out == "" and line.startswith(f"voiopt: error: {path}: ") and message in line, line
 
 
 def test_certify_only_updates_those_entries_and_keeps_the_others(tmp_path, capsys):
     (tmp_path / "certificates.json").write_text(json.dumps(CERTS))
-    code, _, _ = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
+    code, _, _ = run_cli(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--into", str(tmp_path),
                      "--only", "paper-n3-t10-000", "--quiet", "--time-limit", "10", "--threads", "2")
     assert code == 0
     for objective in OBJECTIVES:  # each run was given the threads

@@ -7,7 +7,8 @@ import copy
 import json
 
 import pytest
-from test_cli import one_line_error, run
+from conftest import run_cli
+from test_cli import one_line_error
 
 from voiopt.errors import OptionError
 from voiopt.voilib import library as voilib
@@ -20,7 +21,7 @@ SHIPPED = voilib.DATA / "certificates.json"
 def test_certify_with_default_options_leaves_the_shipped_certificates_byte_identical(tmp_path, capsys):
     before = SHIPPED.read_bytes()
     try:
-        code, out, _ = run(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--only",
+        code, out, _ = run_cli(capsys, "bench", "certify", "--work", str(tmp_path / "work"), "--only",
                            "paper-n3-t10-000", "--time-limit", "2", "--quiet")
         assert SHIPPED.read_bytes() == before
     finally:  # the code before this issue rewrote it: put it back whatever happened
@@ -58,7 +59,7 @@ def test_merge_refuses_a_weaker_or_disagreeing_certificate_and_writes_nothing(tm
     target = _shipped_copy(tmp_path)
     before = target.read_bytes()
     source = _source(tmp_path, "paper-n4-t20-000", "min-voi", **change)
-    code, out, err = run(capsys, "bench", "merge-certificates", str(source), "--into", str(target))
+    code, out, err = run_cli(capsys, "bench", "merge-certificates", str(source), "--into", str(target))
     line = one_line_error(err)
     assert code == 2 and why in line and "paper-n4-t20-000 min-voi" in line and "nothing merged" in line, line
     assert target.read_bytes() == before
@@ -126,7 +127,7 @@ def test_every_shipped_certificate_has_provenance_from_what_is_known():
 
 
 def test_export_writes_a_readme_and_a_solution_per_instance_and_objective_that_score_to_a_zero_gap(tmp_path, capsys):
-    code, _, _ = run(capsys, "bench", "export", "--out", str(tmp_path / "lib"))
+    code, _, _ = run_cli(capsys, "bench", "export", "--out", str(tmp_path / "lib"))
     assert code == 0
     readme = (tmp_path / "lib" / "README.md").read_text()
     certs = voilib.certificates()["instances"]
@@ -138,7 +139,7 @@ def test_export_writes_a_readme_and_a_solution_per_instance_and_objective_that_s
     exported = json.loads((tmp_path / "lib" / "certificates.json").read_text())
     assert all("provenance" in c for e in exported["instances"].values() for c in e["certificates"].values())
     picked = [p for p in solutions if p.name.startswith(("walls-n4-t30-002__", "case-study__"))]
-    code, out, _ = run(capsys, "bench", "score", "--json", *map(str, picked))
+    code, out, _ = run_cli(capsys, "bench", "score", "--json", *map(str, picked))
     rows = json.loads(out)
     assert code == 0 and len(rows) == 8
     for r in rows:
@@ -150,19 +151,19 @@ def test_a_bare_plan_is_scored_with_instance_and_objective_as_json_or_csv(tmp_pa
     cert = voilib.certificates()["instances"]["paper-n4-t20-001"]["certificates"]["mean-max-aoi"]
     plan = tmp_path / "plan.json"
     plan.write_text(json.dumps(cert["plan"]))
-    code, out, _ = run(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001", "--objective",
+    code, out, _ = run_cli(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001", "--objective",
                        "mean-max-aoi", "--json")
     (row,) = json.loads(out)
     assert code == 0 and row["value"] == cert["value"] and row["gap_to_bound"] == 0.0 and row["status"] is None
     idle = {"positions": [cert["plan"]["positions"][0]] * len(cert["plan"]["positions"]),
             "schedule": [None] * len(cert["plan"]["schedule"])}
     plan.write_text(json.dumps(idle))
-    code, out, _ = run(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001", "--objective",
+    code, out, _ = run_cli(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001", "--objective",
                        "mean-max-aoi", "--csv")
     header, line = out.strip().splitlines()
     row = dict(zip(header.split(","), line.split(","), strict=True))
     assert code == 0 and float(row["gap_to_bound"]) > 0 and float(row["value"]) > cert["value"]
-    code, _, err = run(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001")
+    code, _, err = run_cli(capsys, "bench", "score", str(plan), "--instance", "paper-n4-t20-001")
     assert code == 2 and "give both" in one_line_error(err)
 
 
@@ -171,7 +172,7 @@ def test_bench_score_shows_a_results_own_status(tmp_path, capsys):
     path = tmp_path / "r.json"
     path.write_text(json.dumps({"instance": "case-study", "objective": "max-aoi", "plan": cert["plan"],
                                 "status": "interrupted", "method": "milp"}))
-    code, out, _ = run(capsys, "bench", "score", str(path))
+    code, out, _ = run_cli(capsys, "bench", "score", str(path))
     assert code == 0 and "interrupted" in out
 
 
@@ -186,7 +187,7 @@ def test_the_checker_has_an_exit_status_for_each_verdict(tmp_path, capsys, doc, 
     path = tmp_path / "sub.json"
     if doc is not None:
         path.write_text(json.dumps(docs[doc]) if doc in docs else '{"instance": "case-')
-    got, out, err = run(capsys, "bench", "check", str(path))
+    got, out, err = run_cli(capsys, "bench", "check", str(path))
     assert got == code, (out, err)
     if code == 0:
         assert out.startswith("valid: case-study min-voi") and err == ""

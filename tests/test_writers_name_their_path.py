@@ -11,7 +11,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from test_cli import one_line_error, run
+from conftest import run_cli
+from test_cli import one_line_error
 
 from voiopt.core import instance
 from voiopt.networks.generate import case_study
@@ -55,7 +56,7 @@ def test_a_full_disk_names_the_file_and_leaves_nothing(tmp_path, full_disk, writ
 
 def test_the_command_line_names_the_file_on_a_full_disk(tmp_path, capsys, full_disk):
     out = tmp_path / "r.json"
-    code, _, err = run(capsys, "solve", str(ROOT / "instances" / "case-study.json"), "--method", "greedy",
+    code, _, err = run_cli(capsys, "solve", str(ROOT / "instances" / "case-study.json"), "--method", "greedy",
                        "--quiet", "-o", str(out))
     line = one_line_error(err)
     assert code == 1 and f"cannot write {out}: No space left on device" in line, line
