@@ -170,6 +170,7 @@ def cmd_solve(args) -> int:
         raise OptionError("--quiet, --verbose: give one or neither (--quiet prints nothing but errors)")
     if args.output is not None:  # before the work, not after it
         check_output_file(args.output, inputs=[("INSTANCE", args.instance), ("--warm-start", args.warm_start)])
+    policy_out = cli_policy.policy_path(args)  # checked before the work too
     inst = instance_mod.load(args.instance)
     try:
         result = voiopt.solve(inst, method=args.method, objective=args.objective, **_solve_options(args, inst))
@@ -177,7 +178,7 @@ def cmd_solve(args) -> int:
         flag = {k: f"--{k.replace('_', '-')}" for k in (*SOLVE_FLAGS, e.key)}
         raise OptionError(f"{flag[e.key]}: not an option of method {e.method!r} (on the command line it takes "
                           f"{', '.join(flag[k] for k in e.takes if k in flag) or 'none of its options'})") from None
-    result = cli_policy.save_policy(cli_policy.policy_path(args), result)
+    result = cli_policy.save_policy(policy_out, result)
     if args.output:
         result.save(args.output)
     if args.json:

@@ -75,7 +75,7 @@ class ReplanPolicy(Policy):
             self.first = result
         idx = [lat.index(*xy) for xy in result.plan.positions[:2]]
         u = result.plan.schedule[0]
-        m = 0 if len(idx) < 2 else next(m for m in range(5) if lat.neighbors[idx[0], m] == idx[1])
+        m = 0 if len(idx) < 2 else lat.move(idx[0], idx[1])
         return (-1 if u is None else int(u), m)
 
 
@@ -109,16 +109,14 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         except Stopped:
             evaluation = None
         status = Status.FEASIBLE if evaluation is not None else stop.reason
+        first = policy.first or _lossless(instance, objective, planner)  # the slot-0 solve: its bound, its plan
         if evaluation is None:  # stopped: the open-loop lossless plan (the slot-0 solve), valued exactly
             from voiopt.core.expectation import expected_metrics
 
-            first = policy.first or _lossless(instance, objective, planner)
             policy = Policy(instance, objective, "replan", plan=first.plan)
             evaluation = {"value": expected_metrics(instance, first.plan)[objective], "evaluation": "exact"}
             solver["stopped"] = stop.describe()
             solver["note"] = "stopped before re-planning was valued: the policy is the slot-0 plan, open-loop"
-        first = policy.first if isinstance(policy, ReplanPolicy) else None
-        first = first or _lossless(instance, objective, planner)
         bound, kind, extra = first.bound, "lossless" if first.bound is not None else None, {}
         if ir_samples and evaluation is not None and status == Status.FEASIBLE:
             ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound, stop=stop)
