@@ -75,17 +75,8 @@ class Result:
         metrics = simulate(instance, plan).metrics
         value = metrics[objective]
         if bound is not None:
-            bound = float(bound)
-            maximise = objective.maximise
-            violation = (value - bound) if maximise else (bound - value)
-            if violation > 0:
-                # A bound can never be worse than a feasible plan; within tolerance it is solver
-                # noise and the plan's value is itself the tightest valid bound.
-                if violation > OPTIMAL_RTOL * max(abs(bound), abs(value), TINY):
-                    raise RuntimeError(
-                        f"{method}: bound {bound!r} is worse than the simulated value {value!r} of its own plan"
-                    )
-                bound = value
+            bound = _clamped(objective, value, float(bound),
+                             f"{method}: bound {bound!r} is worse than the simulated value {value!r} of its own plan")
         gap = objectives.gap(value, bound)
         if status == Status.OPTIMAL and (gap is None or gap > OPTIMAL_RTOL):
             solver.setdefault("note", "optimality not claimed: bound and simulated value differ")
@@ -109,11 +100,7 @@ class Result:
         value = metrics[objective]
         bound = _clean(bound)
         if bound is not None and evaluation == "exact" and bound_kind in PROVEN_KINDS:
-            maximise = objectives.get(objective).maximise
-            violation = (value - bound) if maximise else (bound - value)
-            if violation > OPTIMAL_RTOL * max(abs(bound), abs(value), TINY):
-                raise RuntimeError(f"{method}: {bound_kind} bound {bound!r} is worse than the exact value {value!r}")
-            bound = value if violation > 0 else bound
+            bound = _clamped(objective, value, bound, f"{method}: {bound_kind} bound {bound!r} is worse than the exact value {value!r}")
         gap = objectives.gap(value, bound)
         if status == Status.OPTIMAL and not (evaluation == "exact" and bound_kind == "exact" and gap is not None
                                              and gap <= OPTIMAL_RTOL):
@@ -187,6 +174,16 @@ def load_result(path: str | os.PathLike) -> Result:
 
 
 STORED_RTOL = 1e-9  # a number stored in a file (a result's, a submission's) against its plan re-simulated
+
+
+def _clamped(objective, value: float, bound: float, worse: str) -> float:
+    """A proven bound beside its plan's value: a bound can never be worse than a feasible plan;
+    within OPTIMAL_RTOL that is solver noise and the value itself is the tightest valid bound.
+    Past it, a RuntimeError saying ``worse``."""
+    violation = (value - bound) if objective.maximise else (bound - value)
+    if violation > OPTIMAL_RTOL * max(abs(bound), abs(value), TINY):
+        raise RuntimeError(worse)
+    return value if violation > 0 else bound
 
 
 def _status(status: str) -> Status:
