@@ -241,7 +241,7 @@ class VoIEnv(gym.Env):
             move = a % 5
             if not mask[move]:
                 home = self.lattice.walk_home(p, 1)[0]
-                move = next(m for m in range(5) if self.lattice.neighbors[p, m] == home)
+                move = self.lattice.move(p, home)
             k = int(self._local[p, move])
         u = int(self.model.action_upload[p, k])
         outcome = self._outcomes.draw(self.np_random, [p], [u])
@@ -273,10 +273,16 @@ class VoIEnv(gym.Env):
         """The robot's point (each robot's, for a fleet)."""
         return [self.state[0]]
 
+    def _distances(self, qidx) -> np.ndarray:
+        """q_i(t) of every sensor from the state's distance indices (0: the initial distance)."""
+        lat = self.lattice
+        return np.array([self.instance.initial_distance(i) if q == 0 else lat.distance[i, q - 1]
+                         for i, q in enumerate(qidx)])
+
     def _obs(self) -> dict[str, np.ndarray]:
         _, aoi, qidx, *_ = self.state
         inst, lat = self.instance, self.lattice
-        dist = np.array([inst.initial_distance(i) if q == 0 else lat.distance[i, q - 1] for i, q in enumerate(qidx)])
+        dist = self._distances(qidx)
         position = lat.points[self._points()] / [inst.width, inst.height]
         obs = {
             "position": position.reshape(self.observation_space["position"].shape).astype(np.float32),
@@ -334,8 +340,8 @@ class VoIEnv(gym.Env):
     def current_slot(self) -> frames.Slot:
         """What render() draws: slot t, each robot's points p(0..t) and uploads u(0..t-1), and V_i(t), A_i(t)."""
         _, aoi, qidx, *_ = self.state
-        inst, lat = self.instance, self.lattice
-        dist = [inst.initial_distance(i) if q == 0 else lat.distance[i, q - 1] for i, q in enumerate(qidx)]
+        inst = self.instance
+        dist = self._distances(qidx)
         paths, uploads = (self._positions, self._schedule) if inst.fleet else ([self._positions], [self._schedule])
         return frames.from_points(inst, self.t, [[*path, p] for path, p in zip(paths, self._points(), strict=True)],
                                   [[*up, -1] for up in uploads], aoi, dist)

@@ -40,7 +40,6 @@ from voiopt.core.plan import Plan
 from voiopt.core.simulate import check_plan
 from voiopt.core.steps import MOVE_NAMES, Steps
 from voiopt.errors import VoioptError
-from voiopt.objectives import check_objective
 from voiopt.runtime.files import read_json, reading, write_json_atomic
 
 FORMAT, VERSION = "voiopt-policy", 1
@@ -59,7 +58,7 @@ class Policy:
 
     def __init__(self, instance: Instance, objective: str, method: str, *, table: dict | None = None,
                  plan: Plan | None = None) -> None:
-        check_objective(objective)
+        objectives.get(objective)
         if (table is None) == (plan is None):
             raise ValueError("a policy is a table or a plan")
         self.instance, self.objective, self.method = instance, objective, method
@@ -131,8 +130,7 @@ class Policy:
     def _move(self, t: int) -> int:
         if t + 1 >= len(self._idx):
             return 0
-        lat = self.steps.lat
-        return int(next(m for m in range(5) if lat.neighbors[self._idx[t], m] == self._idx[t + 1]))
+        return self.steps.lat.move(self._idx[t], self._idx[t + 1])
 
     # -- files -----------------------------------------------------------------------------------
 

@@ -63,6 +63,11 @@ class Lattice:
     def has_blocked(self) -> bool:
         return bool(self.blocked.any())
 
+    def move(self, p: int, q: int) -> int:
+        """The move (0 stay, then N, S, E, W: the columns of ``neighbors``) from point p to q,
+        one step (or none) apart."""
+        return next(m for m in range(5) if self.neighbors[p, m] == q)
+
     def steps_from(self, p) -> np.ndarray:
         """Fewest moves from point p (or the nearest of several points) to every point, around
         blocked points: the Manhattan distance on an open lattice; paths.UNREACHABLE where
