@@ -95,10 +95,6 @@ def get(name: str | Objective) -> Objective:
         raise OptionError(f"objective: unknown objective {name!r} (choose from {', '.join(BY_NAME)})") from None
 
 
-def check_objective(name: str | Objective) -> Objective:
-    return get(name)
-
-
 def sense(name: str | Objective) -> str:
     return get(name).sense
 

@@ -14,13 +14,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from voiopt import objectives
 from voiopt.core.instance import Instance, show
 from voiopt.core.links import success_table
 from voiopt.core.plan import FleetPlan, Plan
 from voiopt.core.simulate import check_plan, simulate, simulate_indices
 from voiopt.errors import OptionError
 from voiopt.grid import lattice as lattice_mod
-from voiopt.objectives import check_objective
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.stop import Stop, Stopped, halt_if_asked
 
@@ -77,7 +77,7 @@ def monte_carlo(instance: Instance, plan_or_run: Plan | FleetPlan | Callable[[np
     (checked and simulated here). ``stop`` (voiopt.runtime.stop.Stop: time, memory, Ctrl-C) is checked
     between scenarios; once it stops, the estimate is over the scenarios done (its ``count``
     says how many), or voiopt.runtime.stop.Stopped if fewer than two were."""
-    check_objective(objective)
+    objectives.get(objective)
     scenarios = np.asarray(scenarios, dtype=float)
     if scenarios.ndim != 3 or scenarios.shape[1:] != (instance.horizon, instance.n_sensors) or len(scenarios) < 2:
         raise OptionError(f"scenarios: must be an array (count >= 2, T = {instance.horizon}, N = {instance.n_sensors}), "

@@ -92,15 +92,19 @@ def _policy_beside(name: str, d: dict) -> Any:
 
 def policy_run(instance: Instance, policy: Any, seed: int) -> tuple[Plan | FleetPlan, Plan | FleetPlan, dict]:
     """One sampled run of a policy (scenario 0 of ``sample_scenarios(instance, 1, seed)``): the
-    uploads it scheduled, the lossless plan it realised (failed uploads unscheduled), and the
-    page's ``run`` (seed, and per slot whether a scheduled upload failed)."""
+    uploads it scheduled, then the lossless plan it realised and the page's ``run`` (``_realised``)."""
     from voiopt.core.policy_value import trace
     from voiopt.core.scenarios import sample_scenarios
 
     idx, sched, ok = trace(policy, sample_scenarios(instance, 1, seed)[0])
-    failed = (sched >= 0) & ~ok
-    return (Plan.from_indices(instance, idx, sched), Plan.from_indices(instance, idx, np.where(ok, sched, -1)),
-            {"seed": seed, "failed": [failed.tolist()]})
+    return (Plan.from_indices(instance, idx, sched), *_realised(instance, idx, sched, ok, seed))
+
+
+def _realised(instance: Instance, idx, sched, ok, seed: int) -> tuple[Plan | FleetPlan, dict]:
+    """A run's lossless plan (each failed upload unscheduled, which the simulator then values)
+    and the page's ``run``: its seed and, per robot and slot, whether a scheduled upload failed."""
+    failed = (np.atleast_2d(sched) >= 0) & ~np.atleast_2d(ok)
+    return Plan.from_indices(instance, idx, np.where(ok, sched, -1)), {"seed": seed, "failed": failed.tolist()}
 
 
 def trajectory(instance: Instance, entry: Entry, where: str = "the instance") -> Trajectory:
@@ -137,16 +141,13 @@ def sampled_run(instance: Instance, plan: Plan | FleetPlan, seed: int) -> tuple[
     ``run``: its seed and, per robot and slot, whether a scheduled upload failed. The outcomes
     are scenario 0 of ``voiopt.core.scenarios.sample_scenarios(instance, 1, seed)`` (coupled
     uniforms U(t, i)). Without ``links`` every upload succeeds: None, and nothing is drawn."""
-    if getattr(instance, "links", None) is None:
+    if instance.links is None:
         return None
-    try:
-        from voiopt.core import scenarios
-    except ImportError:  # an instance with links but no scenario sampler: refuse rather than draw it lossless
-        raise OptionError(f"{instance.name}: links: this voiopt cannot sample lossy runs") from None
+    from voiopt.core import scenarios
+
     idx, sched = check_plan(instance, plan)
     ok = scenarios.successes(instance, idx, sched, scenarios.sample_scenarios(instance, 1, seed)[0])
-    failed = (np.atleast_2d(sched) >= 0) & ~np.atleast_2d(ok)
-    return Plan.from_indices(instance, idx, np.where(ok, sched, -1)), {"seed": seed, "failed": failed.tolist()}
+    return _realised(instance, idx, sched, ok, seed)
 
 
 def story(instance: Instance, entries: list[Entry], where: str = "the instance", seed: int = 0) -> dict[str, Any]:

@@ -24,7 +24,7 @@ from voiopt import objectives
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import Instance, show
 from voiopt.core.plan import Plan
-from voiopt.core.result import OPTIMAL_RTOL, Result, agrees, finite
+from voiopt.core.result import Result, agrees, finite
 from voiopt.core.simulate import simulate
 from voiopt.errors import OptionError, PlanError, VoioptError, first_line
 from voiopt.networks.generate import case_study, generate_set, write_set
@@ -40,7 +40,7 @@ from voiopt.runtime.files import (
 )
 from voiopt.runtime.status import Status
 from voiopt.voilib import export as voilib_export
-from voiopt.voilib.certificates import make_provenance, provenance, today
+from voiopt.voilib.certificates import make_provenance, provenance, same, today
 
 VERSION = "1.2"  # a certificate changes only with a new version of the library (1.1: the cover bound; 1.2: two threads)
 DATA = resources.files("voiopt") / "data" / "voilib"
@@ -370,7 +370,7 @@ def certificate_of(inst: Instance, objective: str, results: list[Result]) -> dic
     proved = [r for r in results if r.status == Status.OPTIMAL]
     for a in proved:
         for b in proved:
-            if gap(a.value, b.value) > OPTIMAL_RTOL:
+            if not same(a.value, b.value):
                 raise VoioptError(f"certify: {inst.name} {objective}: {a.method} proves {a.value!r} and {b.method} "
                                   f"proves {b.value!r}: the exact methods disagree")
     with_plan = [r for r in results if r.plan is not None and r.value is not None]

@@ -16,13 +16,13 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+from voiopt import objectives
 from voiopt.core.expectation import expected_metrics
 from voiopt.core.instance import Instance
 from voiopt.core.links import without_links
 from voiopt.core.policy import Policy, table_of
 from voiopt.core.policy_value import exact_value
 from voiopt.errors import OptionError
-from voiopt.objectives import check_objective
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
@@ -35,7 +35,7 @@ LOSSLESS_SHARE = 0.25  # of a time limit, the most the lossless dp may take
 
 
 def check_averaged(objective: str, method: str) -> None:
-    check_objective(objective)
+    objectives.get(objective)
     if objective not in AVERAGED:
         raise OptionError(f"objective: {method} takes {' or '.join(AVERAGED)}, not {objective!r} (a bottleneck "
                           "objective's optimal policy needs the running extreme in its state, MODEL.md 11; not built)")
