@@ -16,6 +16,7 @@ import numpy as np
 from voiopt import objectives
 from voiopt.core.plan import Plan
 from voiopt.core.policy import Policy
+from voiopt.core.result import Evaluation
 from voiopt.core.scenarios import Estimate, monte_carlo, sample_scenarios
 from voiopt.errors import OptionError
 
@@ -98,7 +99,7 @@ def evaluate_policy(policy: Policy, objective: str | None = None, *, samples: in
     objective = objective or policy.objective
     value = exact_value(policy, objective, max_states)
     if value is not None:
-        return {"value": value, "evaluation": "exact", "samples": None, "value_ci": None}
+        return {"value": value, "evaluation": Evaluation.EXACT, "samples": None, "value_ci": None}
     est = monte_carlo_value(policy, sample_scenarios(policy.instance, samples, seed), objective)
-    return {"value": est.mean, "evaluation": "monte-carlo", "samples": est.count, "value_ci": list(est.ci),
+    return {"value": est.mean, "evaluation": Evaluation.MONTE_CARLO, "samples": est.count, "value_ci": list(est.ci),
             "scenario_seed": seed}

@@ -21,13 +21,31 @@ from voiopt.core.simulate import simulate
 from voiopt.errors import VoioptError
 from voiopt.objectives import TINY
 from voiopt.runtime.files import read_json, write_json_atomic
-from voiopt.runtime.status import Status
+from voiopt.runtime.status import Status, Word
 
 STATUSES = tuple(s.value for s in Status)
 OPTIMAL_RTOL = 1e-6
-EVALUATIONS = ("exact", "monte-carlo")  # MODEL.md section 11: how a lossy result's value was computed
-BOUND_KINDS = ("exact", "lossless", "information-relaxation")
-PROVEN_KINDS = ("exact", "lossless")  # information-relaxation is statistical: never called proven
+
+
+class Evaluation(Word):
+    """How a lossy result's value was computed (MODEL.md section 11)."""
+
+    EXACT = "exact"
+    MONTE_CARLO = "monte-carlo"  # then with ``samples`` and ``value_ci``
+
+
+class BoundKind(Word):
+    """What a lossy result's bound is (MODEL.md section 11), and whether it is proven."""
+
+    EXACT = "exact"  # the optimal policy's exact value
+    LOSSLESS = "lossless"  # the lossless optimum (or its solver's proven bound): bounds every policy
+    INFORMATION_RELAXATION = "information-relaxation"  # statistical: never called proven
+
+    @property
+    def proven(self) -> bool:
+        return self is not BoundKind.INFORMATION_RELAXATION
+
+
 LOSSY_FIELDS = ("evaluation", "samples", "value_ci", "bound_kind", "bound_samples", "bound_confidence")
 
 
@@ -45,10 +63,10 @@ class Result:
     metrics: dict[str, float] | None
     solver: dict[str, Any] = field(default_factory=dict)
     # MODEL.md section 11, lossy instances only (None otherwise, and then absent from the JSON)
-    evaluation: str | None = None  # "exact" or "monte-carlo": how ``value`` and ``metrics`` were computed
+    evaluation: Evaluation | None = None  # how ``value`` and ``metrics`` were computed
     samples: int | None = None  # monte-carlo: the number of scenarios
     value_ci: tuple[float, float] | None = None  # monte-carlo: the 95 % confidence interval of ``value``
-    bound_kind: str | None = None  # "exact", "lossless" or "information-relaxation" (statistical)
+    bound_kind: BoundKind | None = None
     bound_samples: int | None = None  # information-relaxation: the number of scenarios
     bound_confidence: float | None = None  # information-relaxation: the one-sided confidence level
 
@@ -93,16 +111,20 @@ class Result:
         computed as ``evaluation`` says (never a solver's number). ``optimal`` is claimed only
         with an exact value equal, to a relative 1e-6, to an exact bound."""
         objective, status = objectives.get(objective), _status(status)
-        if evaluation not in EVALUATIONS or (bound is None) != (bound_kind is None) or (
-                bound_kind is not None and bound_kind not in BOUND_KINDS):
-            raise ValueError(f"evaluation {evaluation!r}, bound {bound!r}, bound_kind {bound_kind!r}: not a lossy result")
+        try:
+            evaluation, bound_kind = Evaluation(evaluation), None if bound_kind is None else BoundKind(bound_kind)
+            if (bound is None) != (bound_kind is None):
+                raise ValueError
+        except ValueError:
+            raise ValueError(f"evaluation {evaluation!r}, bound {bound!r}, bound_kind {bound_kind!r}: "
+                             "not a lossy result") from None
         solver = dict(solver or {})
         value = metrics[objective]
         bound = _clean(bound)
-        if bound is not None and evaluation == "exact" and bound_kind in PROVEN_KINDS:
+        if bound is not None and evaluation == Evaluation.EXACT and bound_kind.proven:
             bound = _clamped(objective, value, bound, f"{method}: {bound_kind} bound {bound!r} is worse than the exact value {value!r}")
         gap = objectives.gap(value, bound)
-        if status == Status.OPTIMAL and not (evaluation == "exact" and bound_kind == "exact" and gap is not None
+        if status == Status.OPTIMAL and not (evaluation == Evaluation.EXACT and bound_kind == BoundKind.EXACT and gap is not None
                                              and gap <= OPTIMAL_RTOL):
             solver.setdefault("note", "optimality not claimed: it needs an exact value equal to an exact bound")
             status = Status.FEASIBLE
@@ -140,7 +162,7 @@ class Result:
                 d["instance"], d["method"], objective, Status(d["status"]), d["value"], d["bound"],
                 d["gap"], d["runtime_s"], None if d["plan"] is None else Plan.from_dict(d["plan"]),
                 d["metrics"], d.get("solver", {}),
-                **{k: d[k] for k in LOSSY_FIELDS if k in d},
+                **{**{k: d[k] for k in LOSSY_FIELDS if k in d}, **_words(d)},
             )
         except (KeyError, TypeError) as e:
             raise VoioptError(f"result: missing or malformed field {e}") from None
@@ -155,7 +177,7 @@ class Result:
         startup = self.solver.get("startup_s") if isinstance(self.solver, dict) else None
         compiled = f"; start-up {startup:.1f} s" if isinstance(startup, (int, float)) and startup >= 1 else ""
         if self.evaluation is not None:  # lossy: the value is an expectation, the bound has a kind
-            how = "exact" if self.evaluation == "exact" else f"monte-carlo, {self.samples} scenarios, 95 % CI " + (
+            how = "exact" if self.evaluation == Evaluation.EXACT else f"monte-carlo, {self.samples} scenarios, 95 % CI " + (
                 "-" if self.value_ci is None else f"[{self.value_ci[0]:.6g}, {self.value_ci[1]:.6g}]")
             val = f"{val} (expected, {how})"
             bnd = f"{bnd} ({self.bound_kind})" if self.bound is not None else bnd
@@ -163,6 +185,18 @@ class Result:
             f"{self.instance}  {self.method}  {self.objective}: {self.status}  "
             f"value {val}  bound {bnd}  gap {gap}  ({self.runtime_s:.2f} s{compiled})"
         )
+
+
+def _words(d: dict[str, Any]) -> dict[str, Any]:
+    """A result file's evaluation and bound kind, as their objects (a word not of MODEL.md
+    section 11 is refused in one line naming the field)."""
+    out = {}
+    for key, word in (("evaluation", Evaluation), ("bound_kind", BoundKind)):
+        if d.get(key) is not None:
+            if d[key] not in {w.value for w in word}:
+                raise VoioptError(f"result: {key}: must be one of {', '.join(w.value for w in word)}, got {show(d[key])}")
+            out[key] = word(d[key])
+    return out
 
 
 def load_result(path: str | os.PathLike) -> Result:

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from voiopt.core.expectation import expected_metrics
 from voiopt.core.instance import Instance
 from voiopt.core.links import is_lossy, without_links
-from voiopt.core.result import Result
+from voiopt.core.result import BoundKind, Evaluation, Result
 from voiopt.runtime.status import Status
 
 
@@ -42,9 +42,9 @@ def plan_result(instance: Instance, lossless: Result) -> Result:
     status = Status.FEASIBLE if lossless.status == Status.OPTIMAL else Status(lossless.status)
     if lossless.plan is None:  # infeasible or an error: nothing to value
         return Result(instance.name, lossless.method, lossless.objective, status, None, lossless.bound, None,
-                      lossless.runtime_s, None, None, solver, evaluation="exact",
-                      bound_kind=None if lossless.bound is None else "lossless")
+                      lossless.runtime_s, None, None, solver, evaluation=Evaluation.EXACT,
+                      bound_kind=None if lossless.bound is None else BoundKind.LOSSLESS)
     return Result.lossy(instance, lossless.method, lossless.objective, status=status,
-                        metrics=expected_metrics(instance, lossless.plan), evaluation="exact", plan=lossless.plan,
-                        bound=lossless.bound, bound_kind=None if lossless.bound is None else "lossless",
+                        metrics=expected_metrics(instance, lossless.plan), evaluation=Evaluation.EXACT, plan=lossless.plan,
+                        bound=lossless.bound, bound_kind=None if lossless.bound is None else BoundKind.LOSSLESS,
                         runtime_s=lossless.runtime_s, solver=solver)

@@ -17,13 +17,11 @@ import numpy as np
 
 from voiopt.core.instance import Instance, show
 from voiopt.core.plan import FleetPlan, Plan, made_for, plan_of
-from voiopt.core.result import Result, disagreement
+from voiopt.core.result import BoundKind, Evaluation, Result, disagreement
 from voiopt.core.simulate import Trajectory, check_plan, simulate
 from voiopt.errors import OptionError, PlanError, VoioptError
 from voiopt.objectives import DEFAULT, OBJECTIVES, show_gap
 from voiopt.runtime.files import read_json, reading
-
-STATISTICAL_BOUNDS = ("information-relaxation",)  # MODEL.md section 11: a bound estimated from samples
 
 
 @dataclass(frozen=True)
@@ -38,8 +36,8 @@ class Entry:
     value: float | None = None
     bound: float | None = None
     gap: float | None = None
-    bound_kind: str | None = None
-    evaluation: str | None = None  # lossy links: "exact" or "monte-carlo" (with samples and value_ci)
+    bound_kind: BoundKind | None = None
+    evaluation: Evaluation | None = None  # lossy links (with samples and value_ci when monte-carlo)
     samples: int | None = None
     value_ci: tuple[float, float] | None = None
     policy: Any = None  # a voiopt.Policy, shown by one sampled run
@@ -47,7 +45,7 @@ class Entry:
     @property
     def gap_kind(self) -> str:
         """"statistical" for a bound estimated from samples, else "proven" (MODEL.md 6, 11)."""
-        return "statistical" if self.bound_kind in STATISTICAL_BOUNDS else "proven"
+        return "proven" if self.bound_kind is None or self.bound_kind.proven else "statistical"
 
 
 def read_entry(path: str | os.PathLike) -> tuple[Entry, str | None]:
@@ -63,11 +61,10 @@ def read_entry(path: str | os.PathLike) -> tuple[Entry, str | None]:
         policy = _policy_beside(name, d) if result.plan is None else None
         if result.plan is None and policy is None:
             raise OptionError(f"{name}: the result has no plan to show (status {result.status})")
-        text = lambda key: d.get(key) if isinstance(d.get(key), str) else None  # noqa: E731
         ci = d.get("value_ci") if isinstance(d.get("value_ci"), list) and len(d["value_ci"]) == 2 else None
         samples = d.get("samples") if isinstance(d.get("samples"), int) else None
         return Entry(Path(name).name, result.plan, result.objective, result.method, result.status, result.value,
-                     result.bound, result.gap, text("bound_kind"), text("evaluation"), samples,
+                     result.bound, result.gap, result.bound_kind, result.evaluation, samples,
                      None if ci is None else (float(ci[0]), float(ci[1])), policy), result.instance
     plan = plan_of(d, name)  # a plan, or a plan with instance and objective (a VoI-Lib submission)
     objective = d.get("objective", DEFAULT) if isinstance(d, dict) else DEFAULT

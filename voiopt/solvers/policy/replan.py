@@ -23,6 +23,7 @@ from voiopt.core.instance import Instance
 from voiopt.core.links import without_links
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
+from voiopt.core.result import BoundKind, Evaluation
 from voiopt.errors import OptionError
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
@@ -114,14 +115,14 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
             from voiopt.core.expectation import expected_metrics
 
             policy = Policy(instance, objective, "replan", plan=first.plan)
-            evaluation = {"value": expected_metrics(instance, first.plan)[objective], "evaluation": "exact"}
+            evaluation = {"value": expected_metrics(instance, first.plan)[objective], "evaluation": Evaluation.EXACT}
             solver["stopped"] = stop.describe()
             solver["note"] = "stopped before re-planning was valued: the policy is the slot-0 plan, open-loop"
-        bound, kind, extra = first.bound, "lossless" if first.bound is not None else None, {}
+        bound, kind, extra = first.bound, BoundKind.LOSSLESS if first.bound is not None else None, {}
         if ir_samples and evaluation is not None and status == Status.FEASIBLE:
             ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound, stop=stop)
             if ir is not None and not ir["capped"]:
-                bound, kind = ir["bound"], "information-relaxation"
+                bound, kind = ir["bound"], BoundKind.INFORMATION_RELAXATION
                 extra = {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]}
                 solver["information_relaxation"] = {k: ir[k] for k in ("mean", "samples", "seed", "capped")}
     solver["lossless_bound"] = first.bound

@@ -13,7 +13,7 @@ from typing import Any
 from voiopt.core.instance import Instance
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import AVERAGED, exact_value
-from voiopt.core.result import Result
+from voiopt.core.result import Evaluation, Result
 
 
 def policy_result(instance: Instance, method: str, objective: str, policy: Policy, evaluation: dict, *,
@@ -25,7 +25,7 @@ def policy_result(instance: Instance, method: str, objective: str, policy: Polic
     exact, both averaged objectives are given exactly in ``metrics``."""
     solver = dict(solver or {})
     metrics = {objective: float(evaluation["value"])}
-    if evaluation["evaluation"] == "exact":
+    if evaluation["evaluation"] == Evaluation.EXACT:
         for name in AVERAGED:
             if name != objective:
                 other = exact_value(policy, name)

@@ -22,6 +22,7 @@ from voiopt.core.instance import Instance
 from voiopt.core.links import without_links
 from voiopt.core.policy import Policy, table_of
 from voiopt.core.policy_value import exact_value
+from voiopt.core.result import BoundKind
 from voiopt.errors import OptionError
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
@@ -82,12 +83,12 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         solver["note"] = "the expectimax did not finish: the policy is the lossless optimum plan, open-loop"
         evaluation = {"value": expected_metrics(instance, base.plan)[objective], "evaluation": "exact"}
         return policy_result(instance, "policy-dp", objective, open_loop, evaluation, status=stop.reason,
-                             bound=lossless_bound, bound_kind="lossless", runtime_s=time.perf_counter() - t0,
+                             bound=lossless_bound, bound_kind=BoundKind.LOSSLESS, runtime_s=time.perf_counter() - t0,
                              solver=solver)
     policy = table_of(rows, objective, instance, "policy-dp")
     checked = exact_value(policy, objective, max_states=len(rows) + 1)
     solver["programme_value"] = value
     solver["policy_states"] = len(rows)
     return policy_result(instance, "policy-dp", objective, policy, {"value": checked, "evaluation": "exact"},
-                         status=Status.OPTIMAL, bound=value, bound_kind="exact", runtime_s=time.perf_counter() - t0,
+                         status=Status.OPTIMAL, bound=value, bound_kind=BoundKind.EXACT, runtime_s=time.perf_counter() - t0,
                          solver=solver)

@@ -26,6 +26,7 @@ from voiopt.core.instance import Instance
 from voiopt.core.links import success_table, without_links
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
+from voiopt.core.result import BoundKind
 from voiopt.mdp import robot as mdp_mod
 from voiopt.runtime.progress import progress_bar, text_column
 from voiopt.runtime.status import Status
@@ -129,12 +130,12 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
     evaluation = evaluate_policy(policy, objective, samples=samples, seed=seed, max_states=EXACT_STATES)
     solver["decisions"] = {"from_table": policy.visited, "fallback": policy.unvisited}
     base = lossless_optimum(instance, objective, None, memory_limit)
-    bound, kind, extra = base.bound, "lossless", {}
+    bound, kind, extra = base.bound, BoundKind.LOSSLESS, {}
     solver["lossless_bound"] = base.bound
     if ir_samples:
         ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound)
         if ir is not None and not ir["capped"]:
-            bound, kind = ir["bound"], "information-relaxation"
+            bound, kind = ir["bound"], BoundKind.INFORMATION_RELAXATION
             extra = {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]}
     return policy_result(instance, method, objective, policy, evaluation, status=stopped or Status.FEASIBLE, bound=bound,
                          bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)
