@@ -38,7 +38,6 @@ KERNEL_MODULES = (  # every module of the package that defines kernels (tests/te
     "solvers/labels/fleet_kernels.py",
     "solvers/qlearning/fleet.py",
     "solvers/qlearning/kernels.py",
-    "solvers/qlearning/lossy_kernels.py",
     "solvers/qlearning/table.py",
     "solvers/qlearning/rng.py",
 )

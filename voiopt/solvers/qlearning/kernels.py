@@ -113,11 +113,17 @@ def _train(
     n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_reward, slot_in_state,
     start, initial_aoi, n_actions, action_upload, action_next, voi_reward,
     field_word, field_shift, field_width, table, tablef, pool, counts, rng,
-    masked, to_end, budget,
+    masked, to_end, budget, lossy, succ,
 ):
     """Run up to n_episodes episodes; stop early (at an episode boundary) when the table could
     overflow during the next one. counts = [entries, pool used]; eps[0] and rng[0] are updated
-    in place. Returns the number of episodes run."""
+    in place. Returns the number of episodes run.
+
+    With ``lossy`` (MODEL.md section 11), a step that schedules sensor u from point p draws one
+    more uniform x after its epsilon-greedy draws; the upload succeeds iff x < succ[p, u]. A
+    failure leaves u as if unscheduled (its age grows, its q stays); the slot is used and the
+    idle penalty does not apply (an upload was scheduled). Without ``lossy`` nothing is drawn,
+    so the stream and the table are bit for bit those of the lossless model."""
     N = initial_aoi.shape[0]
     K = action_upload.shape[1]
     W = table.shape[1] - 2
@@ -141,7 +147,7 @@ def _train(
         clear[f] = ~(((np.uint64(1) << np.uint64(field_width[f])) - np.uint64(1)) << np.uint64(field_shift[f]))
     ps, pclear = np.uint64(field_shift[0]), clear[0]  # the position is in word 0
     inc0 = inc[0]
-    ahead = not masked  # the look-ahead cursor (module docstring)
+    ahead = not masked and not lossy  # the look-ahead cursor (module docstring); it cannot replay outcome draws
     la_key = np.zeros(W, np.uint64)  # the cursor's key: la_k0, la_key[1:]
     ring_key = np.zeros((RING, W), np.uint64)
     ring_k = np.zeros(RING, np.int64)
@@ -188,18 +194,23 @@ def _train(
                 k = greedy_action(table, cur)
             u = action_upload[p, k]
             p_next = action_next[p, k]
+            got = u  # the sensor whose update arrives: u, unless its upload fails (docstring)
+            if lossy and u >= 0:
+                state += GOLDEN
+                if float(mix(state) >> S11) * TWO_M53 >= succ[p, u]:
+                    got = -1
             for i in range(N):
                 aoi[i] += 1
-            if u >= 0:
-                aoi[u] = 1
-                qidx[u] = 1 + p
+            if got >= 0:
+                aoi[got] = 1
+                qidx[got] = 1 + p
             k0 += inc0
             for w in range(1, W):
                 key[w] += inc[w]
             k0 = (k0 & pclear) | (np.uint64(p_next) << ps)
-            if u >= 0:
-                k0 = set_field(k0, key, 1 + 2 * u, 1, field_word, field_shift, clear)  # A_u = 1
-                k0 = set_field(k0, key, 2 + 2 * u, 1 + p, field_word, field_shift, clear)  # q_u: from p
+            if got >= 0:
+                k0 = set_field(k0, key, 1 + 2 * got, 1, field_word, field_shift, clear)  # A_u = 1
+                k0 = set_field(k0, key, 2 + 2 * got, 1 + p, field_word, field_shift, clear)  # q_u: from p
             if p_next != p:
                 moves += 1
                 if moves_field:
@@ -325,17 +336,35 @@ def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_uploa
     return idx, sched
 
 
+NO_LINKS = np.ones((1, 1))  # _train's success table where no outcome is drawn (never read)
+
+
 def train(model: mdp_mod.MDP, table: QTable, n_episodes: int, eps: np.ndarray, eps0: float,
-          beta: float, gamma: float, rng: np.ndarray) -> tuple[int, bool]:
-    """Run n_episodes of Algorithm 1, growing the table as needed.
+          beta: float, gamma: float, rng: np.ndarray, succ: np.ndarray | None = None) -> tuple[int, bool]:
+    """Run n_episodes of Algorithm 1, growing the table as needed; with ``succ`` (lattice
+    points x sensors, voiopt.core.links.success_table) each upload's outcome is drawn.
     Returns (episodes run, False if stopped by the memory limit)."""
     return table.run(n_episodes, lambda n: _train(
         n, model.horizon, eps, eps0, beta, gamma, table.q_init, model.penalty,
         model.reward == Worth.AOI, int(model.slot_in_state), model.start, model.initial_aoi, model.n_actions,
         model.action_upload, model.action_next, model.voi_reward, model.field_word,
         model.field_shift, model.field_width, table.table, table.table.view(np.float64), table.pool,
-        table.counts, rng, model.masked, model.to_end, model.budget,
+        table.counts, rng, model.masked, model.to_end, model.budget, succ is not None,
+        NO_LINKS if succ is None else succ,
     ))
+
+
+@njit(cache=True)
+def _lookup(key, table):
+    """The pool row of the state with packed ``key`` in the table, or -1 if it was never visited."""
+    s, found = find(key[0], key, table)
+    return row_start(table, s) if found else -1
+
+
+def q_row(model: mdp_mod.MDP, table: QTable, state) -> np.ndarray | None:
+    """The Q-values of a state's actions (mdp.MDP's state tuple), or None if never visited."""
+    r = _lookup(model.encode(state), table.table)
+    return None if r < 0 else table.pool[r: r + int(model.n_actions[state[0]])]
 
 
 def rollout(model: mdp_mod.MDP, table: QTable) -> tuple[np.ndarray, np.ndarray]:

@@ -1,5 +1,5 @@
 """Q-learning on lossy links (MODEL.md sections 7 and 11): Algorithm 1 learning from sampled
-outcomes (lossy_kernels.train_lossy), and its policy.
+outcomes (kernels.train with a success table), and its policy.
 
 Its policy is the greedy policy of its table: in an observed state, the first feasible action
 of largest Q-value. The table's state holds each sensor's distance as the point it uploaded
@@ -31,7 +31,7 @@ from voiopt.mdp import robot as mdp_mod
 from voiopt.runtime.progress import progress_bar, text_column
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
-from voiopt.solvers.qlearning.lossy_kernels import q_row, train_lossy
+from voiopt.solvers.qlearning.kernels import q_row, train
 from voiopt.solvers.qlearning.rng import seed_state
 from voiopt.solvers.qlearning.table import QTable
 
@@ -108,8 +108,8 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
             with progress_bar(progress, text_column("states {task.fields[states]}")) as bar:
                 task = bar.add_task(f"{method} (lossy)", total=episodes, states=0)
                 while done < episodes:
-                    ran, fits = train_lossy(model, table, min(CHUNK_EPISODES, episodes - done), eps, eps0, beta, gamma,
-                                            rng, succ)
+                    ran, fits = train(model, table, min(CHUNK_EPISODES, episodes - done), eps, eps0, beta, gamma,
+                                      rng, succ)
                     done += ran
                     bar.update(task, completed=done, states=table.n_states)
                     if not fits:
@@ -152,8 +152,8 @@ def warm_up() -> float:
                          | {"links": {"model": "bernoulli", "success": 0.5}})
         model = mdp_mod.build(tiny)
         table = QTable(model, 0.0, 64 * 2**20)
-        train_lossy(model, table, 1, np.array([1.0]), 1.0, 0.75, 0.9, np.array([1], dtype=np.uint64),
-                    success_table(tiny))
+        train(model, table, 1, np.array([1.0]), 1.0, 0.75, 0.9, np.array([1], dtype=np.uint64),
+              success_table(tiny))
 
     from voiopt.solvers import base
 
