@@ -17,8 +17,15 @@ from voiopt.mdp import fleet as fleet_mdp
 from voiopt.objectives import Worth
 from voiopt.runtime.jit import njit
 from voiopt.solvers.qlearning.kernels import slot_reward
-from voiopt.solvers.qlearning.rng import GOLDEN, S11, TWO_M53, mix
-from voiopt.solvers.qlearning.table import QTable, find, insert, room_for_episode, row_start
+from voiopt.solvers.qlearning.rng import draw
+from voiopt.solvers.qlearning.table import (
+    QTable,
+    find,
+    hand_back,
+    insert,
+    room_for_episode,
+    row_start,
+)
 
 FLEET_SLOTS = 1 << 10  # the first hash table of a fleet: joint rows are long, so start small
 
@@ -134,19 +141,16 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
     overflow during the next one. Returns the number of episodes run."""
     K, N = starts.shape[0], initial_aoi.shape[0]
     W = table.shape[1] - 2
+    bg = beta * gamma
     legal, legal_next = np.empty(max_joint, np.int64), np.empty(max_joint, np.int64)
     points, moves = np.empty(K, np.int64), np.zeros(K, np.int64)
     nxt, up = np.empty(K, np.int64), np.empty(K, np.int64)
     aoi, qidx = np.empty(N, np.int64), np.empty(N, np.int64)
     key = np.empty(W, np.uint64)
-    bg = beta * gamma
-    state = rng[0]
-    n_states, used = counts[0], counts[1]
-    for ep in range(n_episodes):
-        if not room_for_episode(n_states, used, horizon, max_joint, table, pool):
-            rng[0] = state
-            counts[0], counts[1] = n_states, used
-            return ep
+    state, n_states, used = rng[0], counts[0], counts[1]
+    ran = 0  # episodes run: all, or up to the first that might not fit
+    while ran < n_episodes and room_for_episode(n_states, used, horizon, max_joint, table, pool):
+        ran += 1
         for k in range(K):
             points[k], moves[k] = starts[k], 0
         for i in range(N):
@@ -155,19 +159,16 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
         cur, found = find(key[0], key, table)
         if not found:
             J = _joint_count(points, n_actions)
-            insert(table, tablef, cur, key[0], key, pool, used, J, q_init)
+            used = insert(table, tablef, cur, key[0], key, pool, used, J, q_init)
             n_states += 1
-            used += J
         n_legal = _legal(points, moves, 0, horizon, n_actions, action_upload, action_next, masked, alive, first, radix,
                          counted, budgets, legal, nxt, up)
         epsilon = eps[0]
         for t in range(horizon):
             row = row_start(table, cur)
-            state += GOLDEN
-            x = float(mix(state) >> S11) * TWO_M53
+            state, x = draw(state)
             if x < epsilon:
-                state += GOLDEN
-                x2 = float(mix(state) >> S11) * TWO_M53
+                state, x2 = draw(state)
                 k = legal[int(x2 * n_legal)]
             else:
                 k, _ = _first_max(pool, row, legal, n_legal)
@@ -184,17 +185,15 @@ def _train(n_episodes, horizon, eps, eps0, beta, gamma, q_init, penalty, aoi_rew
                 future = q_init
                 if t + 1 < horizon:
                     J = _joint_count(points, n_actions)
-                    insert(table, tablef, nxt_slot, key[0], key, pool, used, J, q_init)
+                    used = insert(table, tablef, nxt_slot, key[0], key, pool, used, J, q_init)
                     n_states += 1
-                    used += J
             pool[row + k] = (1.0 - beta) * pool[row + k] + beta * r + bg * future
             cur = nxt_slot
             legal, legal_next = legal_next, legal
             n_legal = n_next
         eps[0] = eps[0] - eps0
-    rng[0] = state
-    counts[0], counts[1] = n_states, used
-    return n_episodes
+    hand_back(rng, state, counts, n_states, used)
+    return ran
 
 
 @njit(cache=True)

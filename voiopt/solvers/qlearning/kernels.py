@@ -20,7 +20,7 @@ import numpy as np
 from voiopt.mdp import robot as mdp_mod
 from voiopt.objectives import Worth
 from voiopt.runtime.jit import njit, prefetch
-from voiopt.solvers.qlearning.rng import GOLDEN, S11, TWO_M53, mix
+from voiopt.solvers.qlearning.rng import draw
 from voiopt.solvers.qlearning.table import (
     ARG_BITS,
     ARG_MASK,
@@ -28,6 +28,7 @@ from voiopt.solvers.qlearning.table import (
     encode_key,
     find,
     greedy_action,
+    hand_back,
     home_slot,
     insert,
     room_for_episode,
@@ -49,6 +50,17 @@ def set_field(k0, key, f, value, field_word, field_shift, clear):
         return (k0 & clear[f]) | v
     key[w] = (key[w] & clear[f]) | v
     return k0
+
+
+@njit(cache=True, inline="always")
+def arrive(aoi, qidx, got, p):
+    """One slot of the ages: every A_i + 1, then sensor ``got``'s update from point p arrives
+    (A = 1, q = the index of p); ``got`` < 0: none arrives."""
+    for i in range(aoi.shape[0]):
+        aoi[i] += 1
+    if got >= 0:
+        aoi[got] = 1
+        qidx[got] = 1 + p
 
 
 @njit(cache=True, inline="always")
@@ -154,13 +166,9 @@ def _train(
     ring_tag = np.full(RING, -1, np.int64)
 
     bg = beta * gamma
-    state = rng[0]
-    n_states, used = counts[0], counts[1]
-    for ep in range(n_episodes):
-        if not room_for_episode(n_states, used, horizon, K, table, pool):
-            rng[0] = state
-            counts[0], counts[1] = n_states, used
-            return ep
+    state, n_states, used = rng[0], counts[0], counts[1]
+    ran = 0  # episodes run: all, or up to the first that might not fit
+    while ran < n_episodes and room_for_episode(n_states, used, horizon, K, table, pool):
         p = start
         moves = 0
         for i in range(N):
@@ -171,19 +179,16 @@ def _train(
             key[w] = key0[w]
         cur, found = find(k0, key, table)
         if not found:
-            insert(table, tablef, cur, k0, key, pool, used, n_actions[p], q_init)
+            used = insert(table, tablef, cur, k0, key, pool, used, n_actions[p], q_init)
             n_states += 1
-            used += n_actions[p]
         epsilon = eps[0]
-        tag0 = ep * (horizon + 1)  # the ring's entries of this episode are tagged tag0 + slot
+        tag0 = ran * (horizon + 1)  # the ring's entries of this episode are tagged tag0 + slot
         cursor, stuck, la_k0, la_p, la_rng = -1, True, k0, p, state
         for t in range(horizon):
             # epsilon-greedy: x, and if exploring a second number for the action
-            state += GOLDEN
-            x = float(mix(state) >> S11) * TWO_M53
+            state, x = draw(state)
             if x < epsilon:
-                state += GOLDEN
-                x2 = float(mix(state) >> S11) * TWO_M53
+                state, x2 = draw(state)
                 if masked:
                     k = masked_draw(x2, p, t, moves, n_actions[p], horizon, action_next, to_end, budget)
                 else:
@@ -196,14 +201,10 @@ def _train(
             p_next = action_next[p, k]
             got = u  # the sensor whose update arrives: u, unless its upload fails (docstring)
             if lossy and u >= 0:
-                state += GOLDEN
-                if float(mix(state) >> S11) * TWO_M53 >= succ[p, u]:
+                state, x = draw(state)
+                if x >= succ[p, u]:
                     got = -1
-            for i in range(N):
-                aoi[i] += 1
-            if got >= 0:
-                aoi[got] = 1
-                qidx[got] = 1 + p
+            arrive(aoi, qidx, got, p)
             k0 += inc0
             for w in range(1, W):
                 key[w] += inc[w]
@@ -221,12 +222,12 @@ def _train(
                     for w in range(1, W):
                         la_key[w] = key[w]
                 while not stuck and cursor < t + 1 + AHEAD and cursor < horizon:
-                    la_rng += GOLDEN
-                    if float(mix(la_rng) >> S11) * TWO_M53 >= epsilon:  # greedy: its action waits for the table
+                    la_rng, x = draw(la_rng)
+                    if x >= epsilon:  # greedy: its action waits for the table
                         stuck = True
                         break
-                    la_rng += GOLDEN
-                    la_k = int(float(mix(la_rng) >> S11) * TWO_M53 * n_actions[la_p])
+                    la_rng, x = draw(la_rng)
+                    la_k = int(x * n_actions[la_p])
                     j = cursor & (RING - 1)
                     ring_k[j], ring_tag[j] = la_k, tag0 + cursor
                     ring_key[j, 0] = la_k0
@@ -265,9 +266,8 @@ def _train(
             else:
                 future = q_init
                 if t + 1 < horizon:
-                    insert(table, tablef, nxt, k0, key, pool, used, n_actions[p_next], q_init)
+                    used = insert(table, tablef, nxt, k0, key, pool, used, n_actions[p_next], q_init)
                     n_states += 1
-                    used += n_actions[p_next]
             # Q(s_t, k) and the cached first maximum of s_t
             meta = table[cur, META]
             row = np.int64(meta >> ARG_BITS) - 1
@@ -293,9 +293,9 @@ def _train(
             p = p_next
             cur = nxt
         eps[0] = eps[0] - eps0
-    rng[0] = state
-    counts[0], counts[1] = n_states, used
-    return n_episodes
+        ran += 1
+    hand_back(rng, state, counts, n_states, used)
+    return ran
 
 
 @njit(cache=True)
@@ -325,11 +325,7 @@ def _rollout(horizon, slot_in_state, start, initial_aoi, n_actions, action_uploa
         u = action_upload[p, k]
         idx[t] = p
         sched[t] = u
-        for i in range(N):
-            aoi[i] += 1
-        if u >= 0:
-            aoi[u] = 1
-            qidx[u] = 1 + p
+        arrive(aoi, qidx, u, p)
         if action_next[p, k] != p:
             moves += 1
         p = action_next[p, k]

@@ -22,6 +22,13 @@ def mix(z):
     return z ^ (z >> _S31)
 
 
+@njit(cache=True, inline="always")
+def draw(state):
+    """The next uniform in [0, 1) of the stream: (the advanced state, the number)."""
+    state += GOLDEN
+    return state, float(mix(state) >> S11) * TWO_M53
+
+
 def seed_state(seed: int) -> int:
     """The splitmix64 state for a user seed (the seed itself, as an unsigned 64-bit word)."""
     return int(seed) & _M64

@@ -99,7 +99,8 @@ def greedy_action(table, s):
 
 @njit(cache=True, inline="always")
 def insert(table, tablef, s, k0, key, pool, used, n, q_init):
-    """Store the key (k0, key[1:]) in empty slot s with n fresh Q-values at pool[used:]."""
+    """Store the key (k0, key[1:]) in empty slot s with n fresh Q-values at pool[used:];
+    returns the pool's new fill, used + n."""
     W = key.shape[0]
     table[s, 0] = k0
     for w in range(1, W):
@@ -108,6 +109,14 @@ def insert(table, tablef, s, k0, key, pool, used, n, q_init):
     tablef[s, W + 1] = q_init
     for j in range(n):
         pool[used + j] = q_init
+    return used + n
+
+
+@njit(cache=True, inline="always")
+def hand_back(rng, state, counts, n_states, used):
+    """A chunk's end: the stream's state and the table's fill, back to Python's arrays."""
+    rng[0] = state
+    counts[0], counts[1] = n_states, used
 
 
 @njit(cache=True, nogil=True)
