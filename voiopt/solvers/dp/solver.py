@@ -83,19 +83,20 @@ def warm_up() -> float:
 class Options(options.Options):
     """dp's options (``solve``'s keywords)."""
 
-    warm_start: Plan | None = None
-    beam: int = DEFAULT_BEAM
-    greedy: bool = True
-    collapse: bool = True
-    bounding: bool = True
-    tdma: bool = True
-    pair_bound: bool = True
-    tour_bound: bool = True
-    subsets: bool = True
-    patterns: bool = True
-    fast_budget: int = FAST_BUDGET
-    quick_beam: int = QUICK_BEAM
-    threads: int = 1
+    warm_start: Plan | None = None  # a first incumbent
+    beam: int = DEFAULT_BEAM  # the incumbent beam pass's labels per point
+    # the ingredients, each switched off only to measure it (docs/dp.md)
+    greedy: bool = True  # the greedy incumbent
+    collapse: bool = True  # a sensor that can no longer change the objective collapsed
+    bounding: bool = True  # labels pruned by their bound against the incumbent
+    tdma: bool = True  # bound 2: distinct ages (one upload a slot)
+    pair_bound: bool = True  # bound 3: pairwise travel
+    tour_bound: bool = True  # bound 4: the tour
+    subsets: bool = True  # the bound of sensor subsets, solved first
+    patterns: bool = True  # the subsets' pattern databases
+    fast_budget: int = FAST_BUDGET  # labels of the first, unbounded pass before it is abandoned
+    quick_beam: int = QUICK_BEAM  # the quick beam pass's labels per point
+    threads: int = 1  # chunks of a slot expanded at once
 
 def solve(
     instance: Instance,

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt.runtime.jit import njit
-from voiopt.solvers.labels.kernels import SUM, combine, pareto
+from voiopt.solvers.labels.kernels import SUM, best_of, combine, pareto
 
 
 @njit(cache=True, inline="always")
@@ -58,9 +58,7 @@ def _children_of(rank, u0, u1, up0, up1, child):
 def _slot_worth(child, W, t2):
     w = np.inf
     for i in range(child.shape[0]):
-        v = W[i, child[i], t2]
-        if v < w:
-            w = v
+        w = min(w, W[i, child[i], t2])
     return w
 
 
@@ -77,17 +75,11 @@ def _sources(nbr, q0, q1, src):
     if q0 == q1:
         return 0
     k = 0
-    for k0 in range(5):
-        p0 = nbr[q0, k0]  # moves are symmetric: p is one move from q iff q is one move from p
-        if p0 < 0:
-            continue
-        for k1 in range(5):
-            p1 = nbr[q1, k1]
-            if p1 < 0 or (p0 == q1 and p1 == q0):
-                continue
-            src[k, 0] = p0
-            src[k, 1] = p1
-            k += 1
+    for p0 in nbr[q0]:  # moves are symmetric: p is one move from q iff q is one move from p
+        for p1 in nbr[q1]:
+            if p0 >= 0 and p1 >= 0 and not (p0 == q1 and p1 == q0):
+                src[k, 0], src[k, 1] = p0, p1
+                k += 1
     return k
 
 
@@ -180,11 +172,7 @@ def expand(mode, t, ranks, acc, ub_in, left0, left1, off, nbr, up_rank, in_range
         nk = pareto(c_key, c_acc, c_sum, m, N + 2, kept, halt)
         if nk < 0:
             return _empty(N, counts, generated)
-        if beam > 0 and nk > beam:  # a heuristic pass: the labels of best bound
-            sel = np.sort(np.argsort(-c_ub[kept[:nk]], kind="mergesort")[:beam])
-            for h in range(beam):
-                kept[h] = kept[sel[h]]
-            nk = beam
+        nk = best_of(kept, nk, c_ub, beam)  # a heuristic pass: the labels of best bound
         for h in range(nk):
             c = kept[h]
             out_rank[n_out] = c_rank[c]

@@ -115,13 +115,12 @@ def pareto(key, neg_acc, neg_sum, m, lanes, kept, halt):
     in runs. Which candidates are kept, and in which order, does not depend on the grid. Up to
     SMALL candidates the kept ones are scanned newest first without it."""
     o1 = np.argsort(neg_sum[:m], kind="mergesort")
-    o2 = np.argsort(neg_acc[o1], kind="mergesort")
+    order = o1[np.argsort(neg_acc[o1], kind="mergesort")]
     if m <= SMALL:  # a small front: every kept candidate, newest first, costs less than the grid
         nk = 0
-        for j in range(m):
+        for j, c in enumerate(order):
             if (j & 255) == 0 and halt[0]:
                 return -1
-            c = o1[o2[j]]
             free = True
             for h in range(nk - 1, -1, -1):
                 if _ranks_geq(key[kept[h]], key[c]):
@@ -173,7 +172,7 @@ def pareto(key, neg_acc, neg_sum, m, lanes, kept, halt):
     for j in range(m):
         if (j & 255) == 0 and halt[0]:
             return -1
-        c = o1[o2[j]]
+        c = order[j]
         if last >= 0 and _ranks_geq(k_key[last], key[c]):
             continue
         for e in range(DIMS):
@@ -278,16 +277,47 @@ def _bound_and_collapse(mode, rank, acc, q, tau, W, best_rank, matters, collapse
     return ub
 
 
+@njit(cache=True, inline="always")
+def best_of(kept, nk, ub, beam):
+    """A beam pass (beam > 0): of the nk kept labels, the ``beam`` of best bound (ties: the
+    first), in their order, at the front of ``kept``; returns how many are kept."""
+    if beam <= 0 or nk <= beam:
+        return nk
+    sel = np.sort(np.argsort(-ub[kept[:nk]], kind="mergesort")[:beam])
+    for h in range(beam):
+        kept[h] = kept[sel[h]]
+    return beam
+
+
+@njit(cache=True, inline="always")
+def _improving(o, p, t, ranks, l, in_range_list, up_rank):
+    """Upload choice o at p: -1 for none (o < 0), else the o-th sensor in range, or -2 when that
+    upload does not raise the sensor's rank (such a child is dominated by its sibling)."""
+    if o < 0:
+        return -1
+    u = in_range_list[p, o]
+    return u if up_rank[t, p, u] > ranks[l, u] else -2
+
+
+@njit(cache=True, inline="always")
+def _bound_buffers(N):
+    """_bound_and_collapse's working arrays: matters, scratch, lo, hi, iscratch."""
+    return np.zeros(N, dtype=np.bool_), np.empty(N), np.empty(N), np.empty(N), np.empty(2 * N, dtype=np.int64)
+
+
+@njit(cache=True, inline="always")
+def _label_arrays(n, N):
+    """Room for n labels of N sensors: ranks, acc, ub, parent, upload, moves left."""
+    return (np.empty((n, N), dtype=np.int16), np.empty(n), np.empty(n), np.empty(n, dtype=np.int64),
+            np.empty(n, dtype=np.int16), np.empty(n, dtype=np.int16))
+
+
 @njit(cache=True)
 def label_bounds(mode, t, ranks, acc, pos, W, best_rank, collapse, tdma, pair, steps):
     """Bound (and collapse) of every label of one layer: used for the start label."""
     L, N = ranks.shape
     ub = np.empty(L)
-    matters = np.zeros(N, dtype=np.bool_)
-    scratch = np.empty(N)
-    lo = np.empty(N)
-    hi = np.empty(N)
-    iscratch = np.empty(2 * N, dtype=np.int64)
+    matters, scratch, lo, hi, iscratch = _bound_buffers(N)
     for l in range(L):
         ub[l] = _bound_and_collapse(mode, ranks[l], acc[l], pos[l], t, W, best_rank, matters, collapse, tdma,
                                     scratch, pair, lo, hi, steps, iscratch)
@@ -313,42 +343,26 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
     max_m = 0
     for q in range(q_lo, q_hi):
         m = 0
-        for k in range(5):
-            p = nbr[q, k]
+        for p in nbr[q]:
             if p >= 0:
                 m += (off[p + 1] - off[p]) * (1 + in_range_count[p])
         cap += m
         if m > max_m:
             max_m = m
-    out_rank = np.empty((cap, N), dtype=np.int16)
-    out_acc = np.empty(cap)
-    out_ub = np.empty(cap)
-    out_par = np.empty(cap, dtype=np.int64)
-    out_up = np.empty(cap, dtype=np.int16)
+    out_rank, out_acc, out_ub, out_par, out_up, out_left = _label_arrays(cap, N)
     out_pos = np.empty(cap, dtype=np.int32)
-    out_left = np.empty(cap, dtype=np.int16)
     counts = np.zeros(q_hi - q_lo, dtype=np.int64)
     NL = N + budget_lane  # lanes of the dominance test: the ranks, and the moves left with a budget
     NW = (NL + 3) // 4  # lanes packed four 16 bits to a word
     c_key = np.zeros((max_m, NW), dtype=np.uint64)
-    c_rank = np.empty((max_m, N), dtype=np.int16)
-    c_acc = np.empty(max_m)
-    c_ub = np.empty(max_m)
-    c_par = np.empty(max_m, dtype=np.int64)
-    c_up = np.empty(max_m, dtype=np.int16)
+    c_rank, c_acc, c_ub, c_par, c_up, c_left = _label_arrays(max_m, N)
     c_sum = np.empty(max_m)
-    c_left = np.empty(max_m, dtype=np.int16)
     kept = np.empty(max_m, dtype=np.int64)
-    matters = np.zeros(N, dtype=np.bool_)
-    scratch = np.empty(N)
-    lo = np.empty(N)
-    hi = np.empty(N)
-    iscratch = np.empty(2 * N, dtype=np.int64)
+    matters, scratch, lo, hi, iscratch = _bound_buffers(N)
     no_pair = np.empty((0, 0, 0, 0, 0))
     no_steps = np.empty((0, 0), dtype=np.int64)
     child = np.empty(N, dtype=np.int16)
-    n_out = 0
-    generated = 0
+    n_out, generated = 0, 0
     for q in range(q_lo, q_hi):
         m = 0
         for k in range(5):
@@ -362,8 +376,8 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
                 if lf > slots_left:
                     lf = slots_left  # moves beyond the slots left are worth nothing
                 if halt[0]:
-                    return (out_rank[:0].copy(), out_acc[:0].copy(), out_ub[:0].copy(), out_par[:0].copy(),
-                            out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True, out_left[:0].copy())
+                    return _children(0, out_rank, out_acc, out_ub, out_par, out_up, out_pos, out_left, counts, generated,
+                                     True)
                 if ub_in[l] <= incumbent:
                     continue
                 for o in range(-1, in_range_count[p]):
@@ -399,8 +413,7 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
             continue
         nk = pareto(c_key, c_acc, c_sum, m, NL, kept, halt)
         if nk < 0:
-            return (out_rank[:0].copy(), out_acc[:0].copy(), out_ub[:0].copy(), out_par[:0].copy(),
-                    out_up[:0].copy(), out_pos[:0].copy(), counts, generated, True, out_left[:0].copy())
+            return _children(0, out_rank, out_acc, out_ub, out_par, out_up, out_pos, out_left, counts, generated, True)
         if tdma:  # the costlier bound only for the survivors of the filter
             nt = 0
             for h in range(nk):
@@ -412,12 +425,7 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
                     kept[nt] = c
                     nt += 1
             nk = nt
-        if beam > 0 and nk > beam:
-            sel = np.argsort(-c_ub[kept[:nk]], kind="mergesort")[:beam]
-            sel = np.sort(sel)
-            for h in range(beam):
-                kept[h] = kept[sel[h]]
-            nk = beam
+        nk = best_of(kept, nk, c_ub, beam)
         for h in range(nk):
             c = kept[h]
             for i in range(N):
@@ -430,8 +438,14 @@ def expand(mode, t, ranks, acc, ub_in, left, off, nbr, up_rank, in_range_list, i
             out_left[n_out] = c_left[c]
             n_out += 1
         counts[q - q_lo] = nk
-    return (out_rank[:n_out].copy(), out_acc[:n_out].copy(), out_ub[:n_out].copy(), out_par[:n_out].copy(),
-            out_up[:n_out].copy(), out_pos[:n_out].copy(), counts, generated, False, out_left[:n_out].copy())
+    return _children(n_out, out_rank, out_acc, out_ub, out_par, out_up, out_pos, out_left, counts, generated, False)
+
+
+@njit(cache=True, inline="always")
+def _children(n, rank, acc, ub, par, up, pos, left, counts, generated, halted):
+    """expand's answer: the first n children (none when halted), as fresh arrays."""
+    return (rank[:n].copy(), acc[:n].copy(), ub[:n].copy(), par[:n].copy(), up[:n].copy(), pos[:n].copy(), counts,
+            generated, halted, left[:n].copy())
 
 
 @njit(cache=True)
@@ -439,21 +453,14 @@ def finish(mode, t, ranks, acc, pos, up_rank, in_range_list, in_range_count, W):
     """The best complete plan from the last layer (slot T-1): (value, label, upload)."""
     N = ranks.shape[1]
     T = t + 1
-    best = -np.inf
-    best_l = -1
-    best_u = -1
+    best, best_l, best_u = -np.inf, -1, -1
     child = np.empty(N, dtype=np.int16)
     for l in range(ranks.shape[0]):
         p = pos[l]
         for o in range(-1, in_range_count[p]):
-            u = -1
-            if o >= 0:
-                u = in_range_list[p, o]
-                if up_rank[t, p, u] <= ranks[l, u]:
-                    continue
-            a = _child(mode, ranks[l], acc[l], u, up_rank[t, p], W, T, child)
-            if a > best:
-                best = a
-                best_l = l
-                best_u = u
+            u = _improving(o, p, t, ranks, l, in_range_list, up_rank)
+            if u != -2:  # (-2: an upload that does not improve)
+                a = _child(mode, ranks[l], acc[l], u, up_rank[t, p], W, T, child)
+                if a > best:
+                    best, best_l, best_u = a, l, u
     return best, best_l, best_u

@@ -174,8 +174,6 @@ def build_tables(instance: Instance, objective: str, stop: Stop | None = None) -
                   lat.budget, int(lat.budget < T - 1))
 
 
-
-
 WATCH_S = 0.05  # how often the stop rule is checked while a kernel runs
 
 
