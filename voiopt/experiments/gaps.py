@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import os
 import statistics
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
 from voiopt import objectives
 from voiopt.core.instance import Instance
+from voiopt.core.links import is_lossy
 from voiopt.core.result import Result, load_result
 from voiopt.errors import InstanceError, MemoryLimitError, OptionError, PlanError, VoioptError
 from voiopt.experiments.lossy_gaps import (
@@ -66,10 +67,12 @@ def plan_tasks(
     return tasks
 
 
-def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | None] | None = None) -> list[dict[str, Any]]:
+def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | None] | None = None,
+             lossy: Collection[str] | None = None) -> list[dict[str, Any]]:
     """One row per result, with the best plan value and tightest proven bound of its instance
     (over every method and seed); ``seeds`` gives each result's seed (None: deterministic).
-    A row of a lossy instance also has the LOSSY_COLUMNS (lossy_gaps.lossy_fields)."""
+    A row of a lossy instance (named in ``lossy``; None: one with a labelled result) also has
+    the LOSSY_COLUMNS (lossy_gaps.lossy_fields)."""
     seeds = list(seeds) if seeds is not None else [None] * len(results)
     by_instance: dict[str, list[Result]] = {}
     for r in results:
@@ -87,7 +90,7 @@ def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | No
             # Q-learning's reading of V in its reward (MODEL.md section 7); the AoI reward has no V
             "reward_units": r.solver.get("reward_units", "") if r.solver.get("reward") != Worth.AOI else "",
         }
-        if any(g.evaluation is not None for g in group):
+        if r.instance in lossy if lossy is not None else any(g.evaluation is not None for g in group):
             row.update(lossy_fields(r, group, objective))
         rows.append(row)
     return rows
@@ -223,7 +226,7 @@ def gap_report(
         run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="runs",
                   notes=notes)
     results = [load_result(t.out_path) for t in tasks]
-    rows = gap_rows(results, objective, [t.seed for t in tasks])
+    rows = gap_rows(results, objective, [t.seed for t in tasks], {i.name for _, i in instances_found if is_lossy(i)})
     write_csv(out / "gaps.csv", rows, columns(rows))
     n_instances = len({t.instance_name for t in tasks})
     summary = summarise(rows, methods)

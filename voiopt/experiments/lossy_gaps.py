@@ -110,8 +110,13 @@ def _value_text(row: dict[str, Any]) -> str:
         return "-"
     if row["evaluation"] == Evaluation.MONTE_CARLO:
         half = (row["value_ci_high"] - row["value_ci_low"]) / 2
-        return f"{row['value']:.6g} ± {half:.3g} (monte-carlo, {row['samples']} scenarios)"
+        return f"{row['value']:.6g} ± {half_width(half)} (monte-carlo, {row['samples']} scenarios)"
     return f"{row['value']:.6g} (exact)"
+
+
+def half_width(h: float) -> str:
+    """A CI's half-width as people read it: whole numbers from 1,000 on, else 3 significant figures."""
+    return f"{h:,.0f}" if abs(h) >= 1000 else f"{h:.3g}"
 
 
 def _gap_text(gap, low, high, kind, word: str) -> str:
@@ -132,7 +137,8 @@ def lossy_markdown(rows: Sequence[dict[str, Any]]) -> list[str]:
         "95 % CI. The gap columns of the table above are to the tightest proven bound (exact or "
         "lossless); a Monte Carlo value's gap is an estimate, with [the range its CI implies]. A gap to "
         "an information-relaxation bound is statistical (a one-sided 95 % confidence limit, never proven) "
-        "and is never in the table above. A gap below 0 is an estimate or a statistical bound's miss.",
+        "and is never in the table above; where several methods give one, the least is taken, whose "
+        "confidence is lower than each one's. A gap below 0 is an estimate or a statistical bound's miss.",
         "",
         "| instance | method | seed | status | value | its bound | gap to the proven bound | statistical gap |",
         "|---|---|---:|---|---|---|---|---|",
