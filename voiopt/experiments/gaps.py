@@ -147,12 +147,14 @@ def _seed_text(seeds: Sequence[int]) -> str:
 def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instances: int,
                      reward_units: str | None = None, rows: Sequence[dict[str, Any]] = (),
                      notes: Sequence[str] = (), episodes: int | None = None) -> str:
+    lossy = any(r.get("evaluation") is not None for r in rows)
     lines = [
         f"# Gap report: {objective}",
         "",
         f"{n_instances} instance(s). The gap of a plan is its relative distance to the tightest "
         "proven bound over all methods for that instance (a proven optimality gap; exact when "
-        "an exact method proved optimality). Every value is simulated from the plan. "
+        "an exact method proved optimality). Every value is simulated from the plan"
+        + (", or on a lossy instance is its expectation, exact or Monte Carlo (below). " if lossy else ". ") +
         "A randomised method runs once per seed; its mean, min and max gap are over every seed "
         "and network (one seed is an anecdote).",
     ]
