@@ -123,6 +123,7 @@ def test_the_summary_says_how_each_value_was_computed_and_which_gaps_are_statist
     pdp = next(x for x in md.splitlines() if x.startswith("| tiny1 | policy-dp |"))
     assert "(exact)" in pdp and "(proven, to exact)" in pdp
     assert "tiny3" not in md.split("## Lossy instances")[1]
+    assert (out / "gaps.png").stat().st_size > 1000
 
 
 def _result(method, value, bound, kind, evaluation=Evaluation.EXACT, ci=None):

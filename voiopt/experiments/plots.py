@@ -214,8 +214,7 @@ def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path
     positions = range(1, len(methods) + 1)
     ax.boxplot([d or [math.nan] for d in data], positions=list(positions), widths=0.5, showfliers=False)
     for x, d in zip(positions, data, strict=True):
-        jitter = [x + 0.12 * ((k * 0.618) % 1 - 0.5) for k in range(len(d))]
-        ax.scatter(jitter, d, s=10, alpha=0.6, color="tab:blue", zorder=3)
+        ax.scatter(_jitter(x, len(d)), d, s=10, alpha=0.6, color="tab:blue", zorder=3)
     lossy = any(r.get("evaluation") is not None for r in rows)
     if lossy:
         _mark_lossy_gaps(ax, rows, methods)
@@ -226,18 +225,25 @@ def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path
     save_figure(fig, path)
 
 
+def _jitter(x: float, n: int) -> list[float]:
+    """Where a box's n dots go, spread around x."""
+    return [x + 0.12 * ((k * 0.618) % 1 - 0.5) for k in range(n)]
+
+
 def _mark_lossy_gaps(ax, rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> None:
     """The lossy runs' labels on the gap figure: CI ranges of Monte Carlo gaps (error bars over
     their dots) and statistical gaps (open orange markers right of the box), with a legend."""
     any_mc = False
     for x, m in enumerate(methods, start=1):
         mine = [r for r in rows if r["method"] == m]
-        mc = [r for r in mine if r["gap"] is not None and r.get("gap_ci_low") is not None]
+        dots = [r for r in mine if r["gap"] is not None]  # as plot_gaps draws them, in order
+        mc = [(at, r) for at, r in zip(_jitter(x, len(dots)), dots, strict=True) if r.get("gap_ci_low") is not None]
         if mc:
-            ys = [100 * r["gap"] for r in mc]
-            err = [[y - 100 * r["gap_ci_low"] for y, r in zip(ys, mc, strict=True)],
-                   [100 * r["gap_ci_high"] - y for y, r in zip(ys, mc, strict=True)]]
-            ax.errorbar([x] * len(mc), ys, yerr=err, fmt="none", ecolor="tab:blue", elinewidth=0.8, capsize=2, zorder=2)
+            ys = [100 * r["gap"] for _, r in mc]
+            err = [[y - 100 * r["gap_ci_low"] for y, (_, r) in zip(ys, mc, strict=True)],
+                   [100 * r["gap_ci_high"] - y for y, (_, r) in zip(ys, mc, strict=True)]]
+            ax.errorbar([at for at, _ in mc], ys, yerr=err, fmt="none", ecolor="tab:blue", elinewidth=0.8, capsize=2,
+                        zorder=2)
             any_mc = True
         stat = [100 * r["statistical_gap"] for r in mine if r.get("statistical_gap") is not None]
         ax.scatter([x + 0.32] * len(stat), stat, s=22, facecolors="none", edgecolors="tab:orange", zorder=3)
