@@ -12,7 +12,7 @@ from voiopt.core.instance import from_dict
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import exact_value
 from voiopt.networks.generate import generate
-from voiopt.runtime.stop import INTERRUPTED, watch
+from voiopt.runtime.stop import INTERRUPTED, TIME_LIMIT, Stop, Stopped, watch
 from voiopt.solvers.qlearning import lossy
 
 
@@ -83,3 +83,13 @@ def test_a_time_limit_cuts_the_monte_carlo_value_short_and_says_over_how_many_sc
     assert f"over {r.samples} of 20000 scenarios" in r.solver["stopped"] and "Monte Carlo stopped" in r.solver["stopped"]
     assert r.bound_kind == "lossless" and r.value <= r.bound
     assert r.runtime_s < 0.2 + 30  # a coarse sanity bound: without the stop rule, 20,000 runs take a minute
+
+
+def test_the_exact_enumeration_stops_when_the_rule_says_stop():
+    inst = from_dict(tiny(3, 3, 6, {"model": "bernoulli", "success": 0.6}))
+    policy = Policy(inst, "mean-min-voi", "replan", plan=voiopt.solve(inst, "dp").plan)
+    stop = Stop()
+    assert exact_value(policy, stop=stop) == exact_value(policy)  # not asked: the same value
+    stop.request(TIME_LIMIT)
+    with pytest.raises(Stopped):
+        exact_value(policy, stop=stop)
