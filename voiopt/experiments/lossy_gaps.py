@@ -31,11 +31,11 @@ def check_samples(samples: int | None, ir_samples: int | None) -> dict[str, int]
     information relaxation's: 0 for none, or at least 2), for the methods that take them; only
     those given, so that a sweep without them records the settings it always did."""
     given = {}
-    for flag, key, value, none in (("--samples", "samples", samples, ""), ("--ir-samples", "ir_samples", ir_samples, " (or 0: none)")):
+    for flag, key, value, zero in (("--samples", "samples", samples, False), ("--ir-samples", "ir_samples", ir_samples, True)):
         if value is None:
             continue
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0 or value == 1 or (value == 0 and not none):
-            raise OptionError(f"{flag}: must be an integer >= 2{none}, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, int) or not (value >= 2 or (zero and value == 0)):
+            raise OptionError(f"{flag}: must be an integer >= 2{' (or 0: none)' if zero else ''}, got {value!r}")
         given[key] = value
     return given
 
