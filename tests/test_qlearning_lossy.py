@@ -11,6 +11,9 @@ import voiopt
 from voiopt.core.instance import from_dict
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import exact_value
+from voiopt.networks.generate import generate
+from voiopt.runtime.stop import INTERRUPTED, TIME_LIMIT, Stop, Stopped, watch
+from voiopt.solvers.qlearning import lossy
 
 
 @pytest.mark.parametrize(("method", "objective"), [("qlearning", "mean-min-voi"), ("aoi-qlearning", "mean-max-aoi")])
@@ -50,3 +53,43 @@ def test_lossy_qlearning_stopped_by_the_time_limit_reports_its_policy_so_far():
     r = voiopt.solve(inst, "qlearning", episodes=10**8, seed=0, time_limit=1e-6)
     assert r.status == "time_limit" and 0 < r.solver["episodes_run"] < 10**8
     assert r.evaluation == "exact" and r.value <= r.bound
+
+
+def test_a_stop_asked_before_the_run_stops_every_step_and_still_values_the_policy():
+    """A Ctrl-C that came before (a watch outside, already stopped): training stops after its
+    first chunk, the evaluation after the two scenarios a CI needs, the bound's dp at once;
+    the status says interrupted, the value is a labelled Monte Carlo estimate."""
+    inst = from_dict(tiny(3, 3, 6, {"model": "bernoulli", "success": 0.6}))
+    with watch() as outer:
+        outer.request(INTERRUPTED)
+        r = voiopt.solve(inst, "qlearning", episodes=10**8, seed=0, samples=500)
+    assert r.status == "interrupted" and 0 < r.solver["episodes_run"] < 10**8
+    assert r.evaluation == "monte-carlo" and r.samples == lossy.MIN_SCENARIOS
+    assert r.value_ci[0] <= r.value <= r.value_ci[1]
+    assert "interrupted" in r.solver["stopped"] and "over 2 of 500 scenarios" in r.solver["stopped"]
+    assert r.bound_kind == "lossless" and r.value <= r.bound  # the stopped dp's bound is still proven
+    assert r.bound >= oracle(tiny(3, 3, 6, {"model": "bernoulli", "success": 0.6}), "mean-min-voi") * (1 - 1e-9)
+
+
+def test_a_time_limit_cuts_the_monte_carlo_value_short_and_says_over_how_many_scenarios(monkeypatch):
+    """The Monte Carlo value after training honours the time limit: an estimate over the
+    scenarios done (20,000 of 1 ms each cannot fit in the step's time), with its count."""
+    monkeypatch.setattr(lossy, "EXACT_STATES", 0)  # no exact value: Monte Carlo
+    inst = from_dict(generate(5, 20, width=3.0, height=3.0, seed=4).to_dict()
+                     | {"links": {"model": "bernoulli", "success": 0.7}})
+    r = voiopt.solve(inst, "qlearning", episodes=10**8, seed=0, samples=20_000, time_limit=0.2)
+    assert r.status == "time_limit" and r.evaluation == "monte-carlo"
+    assert lossy.MIN_SCENARIOS <= r.samples < 20_000 and r.value_ci[0] <= r.value <= r.value_ci[1]
+    assert f"over {r.samples} of 20000 scenarios" in r.solver["stopped"] and "Monte Carlo stopped" in r.solver["stopped"]
+    assert r.bound_kind == "lossless" and r.value <= r.bound
+    assert r.runtime_s < 0.2 + 30  # a coarse sanity bound: without the stop rule, 20,000 runs take a minute
+
+
+def test_the_exact_enumeration_stops_when_the_rule_says_stop():
+    inst = from_dict(tiny(3, 3, 6, {"model": "bernoulli", "success": 0.6}))
+    policy = Policy(inst, "mean-min-voi", "replan", plan=voiopt.solve(inst, "dp").plan)
+    stop = Stop()
+    assert exact_value(policy, stop=stop) == exact_value(policy)  # not asked: the same value
+    stop.request(TIME_LIMIT)
+    with pytest.raises(Stopped):
+        exact_value(policy, stop=stop)

@@ -50,6 +50,36 @@ def cmd_bench_export(args) -> int:
 
 SCORE_COLUMNS = ("result", "instance", "objective", "status", "value", "certified_status", "certified_value",
                  "certified_bound", "gap_to_bound", "gap_to_best")
+# a lossy row's labels (MODEL.md section 11; a row without them is lossless): the keys a row carries,
+# and the columns --csv and the table give them (value_ci as its two ends)
+LOSSY_KEYS = ("evaluation", "samples", "value_ci", "bound_kind")
+LOSSY_CSV = ("evaluation", "samples", "value_ci_low", "value_ci_high", "bound_kind")
+
+
+def score_columns(rows) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The JSON keys and CSV columns of ``bench score``: SCORE_COLUMNS, and where some row is
+    lossy (has an ``evaluation``) the lossy labels too; every lossless row leaves them empty,
+    and a report with no lossy row is as it always was."""
+    if not any(r.get("evaluation") is not None for r in rows):
+        return SCORE_COLUMNS, SCORE_COLUMNS
+    return SCORE_COLUMNS + LOSSY_KEYS, SCORE_COLUMNS + LOSSY_CSV
+
+
+def _csv_cells(r) -> dict:
+    ci = r.get("value_ci")
+    return {**r, "value_ci_low": None if ci is None else ci[0], "value_ci_high": None if ci is None else ci[1]}
+
+
+def _value_cell(r) -> str:
+    ci = r.get("value_ci")
+    return f"{r['value']:.6g}" + ("" if ci is None else f" ± {(ci[1] - ci[0]) / 2:.3g}")
+
+
+def _how_cell(r) -> str:
+    """A lossy row's evaluation, as the table says it; "-" for a lossless one."""
+    if r.get("evaluation") is None:
+        return "-"
+    return str(r["evaluation"]) + ("" if r.get("samples") is None else f", {r['samples']} scenarios")
 
 
 def cmd_bench_score(args) -> int:
@@ -58,21 +88,28 @@ def cmd_bench_score(args) -> int:
     if args.json and args.csv:
         raise OptionError("--json and --csv: give one")
     rows, errors = voilib.score_files(args.results, args.instance, args.objective)  # a forged value, an illegal plan: 2
+    keys, columns = score_columns(rows)
     if args.json:
-        print(dumps_json([{c: r[c] for c in SCORE_COLUMNS} for r in rows]))
+        print(dumps_json([{c: r.get(c) for c in keys} for r in rows]))
     elif args.csv:
         w = csv.writer(sys.stdout, lineterminator="\n")
-        w.writerow(SCORE_COLUMNS)
-        w.writerows([["" if r[c] is None else repr(r[c]) if isinstance(r[c], float) else r[c] for c in SCORE_COLUMNS]
-                     for r in rows])
+        w.writerow(columns)
+        w.writerows([["" if r.get(c) is None else repr(r[c]) if isinstance(r[c], float) else r[c] for c in columns]
+                     for r in map(_csv_cells, rows)])
     elif rows:
-        t = Table(title="gap to the VoI-Lib certificate (re-simulated)")
-        for col in ("result", "instance", "objective", "status", "value", "certified", "gap to bound", "gap to best"):
+        lossy = keys != SCORE_COLUMNS
+        t = Table(title="gap to the VoI-Lib certificate (re-simulated)" + (
+            "; a lossy value is exact or Monte Carlo ± its 95 % CI's half-width" if lossy else ""))
+        heads = ("result", "instance", "objective", "status", "value", *(("evaluation",) if lossy else ()),
+                 "certified", *(("bound kind",) if lossy else ()), "gap to bound", "gap to best")
+        for col in heads:
             t.add_column(col)
         pct = lambda g: "-" if g is None else f"{100 * g:.4g} %"  # noqa: E731
         for r in rows:
-            t.add_row(r["result"], r["instance"], r["objective"], r["status"] or "-", f"{r['value']:.6g}",
-                      r["certified"], pct(r["gap_to_bound"]), pct(r["gap_to_best"]))
+            how = (_how_cell(r),) if lossy else ()
+            kind = (str(r.get("bound_kind") or "-"),) if lossy else ()
+            t.add_row(r["result"], r["instance"], r["objective"], r["status"] or "-", _value_cell(r), *how,
+                      r["certified"], *kind, pct(r["gap_to_bound"]), pct(r["gap_to_best"]))
         wide.print(t)
     for e in errors[:-1]:  # one line each; the last is main's, with exit status 2
         err.print(f"voiopt: error: {e}", markup=False)

@@ -218,7 +218,7 @@ def cmd_gap_report(args) -> int:
         args.instances, methods, args.objective, args.output, time_limit=args.time_limit,
         memory_limit=args.memory_limit, episodes=args.episodes, seed=args.seed, seeds=args.seeds,
         reward_units=args.reward_units, workers=args.workers, dask_scheduler=args.dask_scheduler,
-        progress=not args.quiet, notes=notes,
+        progress=not args.quiet, notes=notes, samples=args.samples, ir_samples=args.ir_samples,
     )
     for note in notes:
         err.print(note, markup=False)
@@ -389,6 +389,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--time-limit", type=float, default=None, metavar="S", help="per run (default: none)")
     _add_qlearning_options(s, seeds=True)
     _add_executor_options(s)
+    s.add_argument("--samples", type=int, default=None, metavar="K",
+                   help="replan, qlearning on lossy links: coupled scenarios of a Monte Carlo value (default 1000)")
+    s.add_argument("--ir-samples", type=int, default=None, metavar="K",
+                   help="replan, qlearning on lossy links: scenarios of the information-relaxation bound, a "
+                        "statistical bound reported apart from the proven ones (default 0: none)")
     s.add_argument("-o", "--output", "--out", dest="output", required=True, metavar="DIR",
                    help="gaps.csv, summary.md, gaps.png and results/ (one JSON per run) go here; a re-run resumes "
                         "(--out, as for figures and generate, says the same)")

@@ -19,6 +19,7 @@ from voiopt.core.policy import Policy
 from voiopt.core.result import Evaluation
 from voiopt.core.scenarios import Estimate, monte_carlo, sample_scenarios
 from voiopt.errors import OptionError
+from voiopt.runtime.stop import Stop, halt_if_asked
 
 MAX_STATES = 200_000  # states of one slot past which a policy's value is estimated instead
 DEFAULT_SAMPLES = 1000
@@ -41,9 +42,14 @@ def _act(policy: Policy, t: int, state: tuple):
     return u, move
 
 
-def exact_value(policy: Policy, objective: str | None = None, max_states: int = MAX_STATES) -> float | None:
+STOP_EVERY = 256  # states between two looks at the stop rule
+
+
+def exact_value(policy: Policy, objective: str | None = None, max_states: int = MAX_STATES,
+                stop: Stop | None = None) -> float | None:
     """The policy's exact expected ``objective`` (default its own), or None where some slot has
-    more than ``max_states`` reachable states."""
+    more than ``max_states`` reachable states. ``stop`` (the stop rule) is looked at every
+    STOP_EVERY states: once it says stop, voiopt.runtime.stop.Stopped."""
     objective = objective or policy.objective
     if objective not in AVERAGED:
         raise OptionError(f"objective: a policy's value is computed for {', '.join(AVERAGED)}, got {objective!r}")
@@ -52,7 +58,9 @@ def exact_value(policy: Policy, objective: str | None = None, max_states: int = 
     total = 0.0
     for t in range(steps.T):
         nxt: dict = {}
-        for state, prob in layer.items():
+        for k, (state, prob) in enumerate(layer.items()):
+            if k % STOP_EVERY == 0:
+                halt_if_asked(stop)
             u, move = _act(policy, t, state)
             for p2, s2 in steps.outcomes(t, state, u, *move):
                 nxt[s2] = nxt.get(s2, 0.0) + prob * p2
@@ -87,9 +95,11 @@ def run(policy: Policy, u_row: np.ndarray) -> Plan:
     return Plan.from_indices(policy.instance, idx, np.where(ok, sched, -1))
 
 
-def monte_carlo_value(policy: Policy, scenarios: np.ndarray, objective: str | None = None) -> Estimate:
-    """The mean of ``objective`` over the policy's runs in the given scenarios, with its CI."""
-    return monte_carlo(policy.instance, lambda u: run(policy, u), scenarios, objective or policy.objective)
+def monte_carlo_value(policy: Policy, scenarios: np.ndarray, objective: str | None = None,
+                      stop: Stop | None = None) -> Estimate:
+    """The mean of ``objective`` over the policy's runs in the given scenarios, with its CI
+    (with ``stop``: over those done before it said stop, as core.scenarios.monte_carlo)."""
+    return monte_carlo(policy.instance, lambda u: run(policy, u), scenarios, objective or policy.objective, stop=stop)
 
 
 def evaluate_policy(policy: Policy, objective: str | None = None, *, samples: int = DEFAULT_SAMPLES, seed: int = 0,

@@ -1,18 +1,28 @@
 """Gap reports: every method on every network (randomised ones over several seeds), each
-plan's proven gap to the tightest bound of its network, as gaps.csv, summary.md and gaps.png."""
+plan's proven gap to the tightest bound of its network, as gaps.csv, summary.md and gaps.png.
+On lossy instances (MODEL.md section 11) values and bounds are labelled, and the headline gap
+is to a proven bound only (voiopt.experiments.lossy_gaps)."""
 
 from __future__ import annotations
 
 import os
 import statistics
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
 from voiopt import objectives
 from voiopt.core.instance import Instance
+from voiopt.core.links import is_lossy
 from voiopt.core.result import Result, load_result
 from voiopt.errors import InstanceError, MemoryLimitError, OptionError, PlanError, VoioptError
+from voiopt.experiments.lossy_gaps import (
+    LOSSY_COLUMNS,
+    check_samples,
+    lossy_fields,
+    lossy_markdown,
+    proven,
+)
 from voiopt.experiments.plots import plot_gaps
 from voiopt.experiments.runner import (
     Task,
@@ -57,9 +67,12 @@ def plan_tasks(
     return tasks
 
 
-def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | None] | None = None) -> list[dict[str, Any]]:
+def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | None] | None = None,
+             lossy: Collection[str] | None = None) -> list[dict[str, Any]]:
     """One row per result, with the best plan value and tightest proven bound of its instance
-    (over every method and seed); ``seeds`` gives each result's seed (None: deterministic)."""
+    (over every method and seed); ``seeds`` gives each result's seed (None: deterministic).
+    A row of a lossy instance (named in ``lossy``; None: one with a labelled result) also has
+    the LOSSY_COLUMNS (lossy_gaps.lossy_fields)."""
     seeds = list(seeds) if seeds is not None else [None] * len(results)
     by_instance: dict[str, list[Result]] = {}
     for r in results:
@@ -68,16 +81,25 @@ def gap_rows(results: Sequence[Result], objective: str, seeds: Sequence[int | No
     for r, seed in zip(results, seeds, strict=True):
         group = by_instance[r.instance]
         best_value = objectives.best(objective, (g.value for g in group))
-        best_bound = objectives.tightest(objective, (g.bound for g in group))
+        best_bound = objectives.tightest(objective, (g.bound for g in group if proven(g)))
         gap = objectives.gap(r.value, best_bound)
-        rows.append({
+        row = {
             "instance": r.instance, "method": r.method, "seed": seed, "objective": r.objective, "status": r.status,
             "value": r.value, "bound": r.bound, "best_value": best_value, "best_bound": best_bound,
             "gap": gap, "runtime_s": r.runtime_s, "cause": cause(r),
             # Q-learning's reading of V in its reward (MODEL.md section 7); the AoI reward has no V
             "reward_units": r.solver.get("reward_units", "") if r.solver.get("reward") != Worth.AOI else "",
-        })
+        }
+        if r.instance in lossy if lossy is not None else any(g.evaluation is not None for g in group):
+            row.update(lossy_fields(r, group, objective))
+        rows.append(row)
     return rows
+
+
+def columns(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """gaps.csv's columns: GAP_COLUMNS, and the LOSSY_COLUMNS where some instance is lossy (a
+    lossless report's file is as it always was)."""
+    return GAP_COLUMNS + (LOSSY_COLUMNS if any("evaluation" in r for r in rows) else [])
 
 
 def summarise(rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> list[dict[str, Any]]:
@@ -125,12 +147,14 @@ def _seed_text(seeds: Sequence[int]) -> str:
 def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instances: int,
                      reward_units: str | None = None, rows: Sequence[dict[str, Any]] = (),
                      notes: Sequence[str] = (), episodes: int | None = None) -> str:
+    lossy = any(r.get("evaluation") is not None for r in rows)
     lines = [
         f"# Gap report: {objective}",
         "",
         f"{n_instances} instance(s). The gap of a plan is its relative distance to the tightest "
         "proven bound over all methods for that instance (a proven optimality gap; exact when "
-        "an exact method proved optimality). Every value is simulated from the plan. "
+        "an exact method proved optimality). Every value is simulated from the plan"
+        + (", or on a lossy instance is its expectation, exact or Monte Carlo (below). " if lossy else ". ") +
         "A randomised method runs once per seed; its mean, min and max gap are over every seed "
         "and network (one seed is an anecdote).",
     ]
@@ -158,6 +182,7 @@ def summary_markdown(summary: Sequence[dict[str, Any]], objective: str, n_instan
     if summary and not any(s["with_gap"] for s in summary):
         lines += ["", "No method proved a bound on these instances, so there is no gap: add an exact method "
                       "(dp or milp) to measure one."]
+    lines += lossy_markdown(rows)
     if notes:
         lines += ["", *[f"- {n}" for n in notes]]
     lines += ["", "![gap distributions](gaps.png)", ""]
@@ -180,16 +205,19 @@ def gap_report(
     dask_scheduler: str | None = None,
     progress: bool = False,
     notes: list[str] | None = None,
+    samples: int | None = None,
+    ir_samples: int | None = None,
 ) -> list[dict[str, Any]]:
     """Run every (instance, method, seed), then write gaps.csv, summary.md and gaps.png.
     Randomised methods run with seeds seed .. seed + seeds - 1; the others once. Everything
     is checked before any work, and run.json is written only then. ``notes`` collects lines
-    for the user (files skipped)."""
+    for the user (files skipped). ``samples`` and ``ir_samples`` go to the methods that take
+    them (replan, qlearning on lossy links: Monte Carlo scenarios, information relaxation)."""
     objective = objectives.get(objective)
     methods = check_methods(methods)
     options = run_options(time_limit=time_limit, memory_limit=memory_limit, episodes=episodes,
                           reward_units=reward_units, seeds=seeds, workers=workers, dask_scheduler=dask_scheduler,
-                          seed=seed)
+                          seed=seed) | check_samples(samples, ir_samples)
     out = check_output_dir(out_dir)
     notes = [] if notes is None else notes
     instances_found = load_instances(instances, notes)
@@ -200,8 +228,8 @@ def gap_report(
         run_tasks(tasks, workers=workers, dask_scheduler=dask_scheduler, progress=progress, description="runs",
                   notes=notes)
     results = [load_result(t.out_path) for t in tasks]
-    rows = gap_rows(results, objective, [t.seed for t in tasks])
-    write_csv(out / "gaps.csv", rows, GAP_COLUMNS)
+    rows = gap_rows(results, objective, [t.seed for t in tasks], {i.name for _, i in instances_found if is_lossy(i)})
+    write_csv(out / "gaps.csv", rows, columns(rows))
     n_instances = len({t.instance_name for t in tasks})
     summary = summarise(rows, methods)
     uses_q = any(m in RANDOMISED for m in methods)

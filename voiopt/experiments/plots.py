@@ -206,18 +206,54 @@ def plot_plan(instance: Instance, plan: Plan | FleetPlan, path: str | os.PathLik
 def plot_gaps(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: Path, objective: str,
               about: str = "") -> None:
     """The gap report's figure: each method's proven gaps; ``about`` (networks, episodes, the
-    reward's reading) goes under the title, so the figure says what it shows on its own."""
+    reward's reading) goes under the title, so the figure says what it shows on its own. Where
+    some instance is lossy, a Monte Carlo value's gap has its CI's range as an error bar, and the
+    statistical gaps (to an information-relaxation bound) are open markers beside each box."""
     fig, ax = start_figure(figsize=(max(4.2, 1.6 + 1.3 * len(methods)), 3.8))
     data = [[100 * r["gap"] for r in rows if r["method"] == m and r["gap"] is not None] for m in methods]
     positions = range(1, len(methods) + 1)
     ax.boxplot([d or [math.nan] for d in data], positions=list(positions), widths=0.5, showfliers=False)
     for x, d in zip(positions, data, strict=True):
-        jitter = [x + 0.12 * ((k * 0.618) % 1 - 0.5) for k in range(len(d))]
-        ax.scatter(jitter, d, s=10, alpha=0.6, color="tab:blue", zorder=3)
+        ax.scatter(_jitter(x, len(d)), d, s=10, alpha=0.6, color="tab:blue", zorder=3)
+    lossy = any(r.get("evaluation") is not None for r in rows)
+    if lossy:
+        _mark_lossy_gaps(ax, rows, methods)
     ax.set_xticks(list(positions), methods, rotation=20)
-    ax.set_ylabel("proven gap to optimum (%)")
-    ax.set_title(f"{objective}: proven gaps to the optimum" + (f"\n{about}" if about else ""), fontsize=9)
+    ax.set_ylabel("gap to the tightest proven bound (%)" if lossy else "proven gap to optimum (%)")
+    what = "gaps to the tightest proven bound (open: statistical)" if lossy else "proven gaps to the optimum"
+    ax.set_title(f"{objective}: {what}" + (f"\n{about}" if about else ""), fontsize=9)
     save_figure(fig, path)
+
+
+def _jitter(x: float, n: int) -> list[float]:
+    """Where a box's n dots go, spread around x."""
+    return [x + 0.12 * ((k * 0.618) % 1 - 0.5) for k in range(n)]
+
+
+def _mark_lossy_gaps(ax, rows: Sequence[dict[str, Any]], methods: Sequence[str]) -> None:
+    """The lossy runs' labels on the gap figure: CI ranges of Monte Carlo gaps (error bars over
+    their dots) and statistical gaps (open orange markers right of the box), with a legend."""
+    any_mc = False
+    for x, m in enumerate(methods, start=1):
+        mine = [r for r in rows if r["method"] == m]
+        dots = [r for r in mine if r["gap"] is not None]  # as plot_gaps draws them, in order
+        mc = [(at, r) for at, r in zip(_jitter(x, len(dots)), dots, strict=True) if r.get("gap_ci_low") is not None]
+        if mc:
+            ys = [100 * r["gap"] for _, r in mc]
+            err = [[y - 100 * r["gap_ci_low"] for y, (_, r) in zip(ys, mc, strict=True)],
+                   [100 * r["gap_ci_high"] - y for y, (_, r) in zip(ys, mc, strict=True)]]
+            ax.errorbar([at for at, _ in mc], ys, yerr=err, fmt="none", ecolor="tab:blue", elinewidth=0.8, capsize=2,
+                        zorder=2)
+            any_mc = True
+        stat = [100 * r["statistical_gap"] for r in mine if r.get("statistical_gap") is not None]
+        ax.scatter([x + 0.32] * len(stat), stat, s=22, facecolors="none", edgecolors="tab:orange", zorder=3)
+    ax.scatter([], [], s=10, color="tab:blue", label="gap to the proven bound (exact or lossless)")
+    if any_mc:
+        ax.errorbar([], [], yerr=[], fmt="none", ecolor="tab:blue", capsize=2,
+                    label="Monte Carlo value: gap at the estimate, bar: its CI's range")
+    ax.scatter([], [], s=22, facecolors="none", edgecolors="tab:orange",
+               label="statistical gap (information relaxation, not proven)")
+    ax.legend(fontsize=6, loc="best")
 
 
 def plot_sweep(sweep, rows: list[dict[str, Any]], path: Path, labels: dict[str, str] = SCHEMES,

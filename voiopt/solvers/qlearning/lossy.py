@@ -25,8 +25,9 @@ import numpy as np
 from voiopt.core.instance import Instance
 from voiopt.core.links import success_table, without_links
 from voiopt.core.policy import Policy
-from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
-from voiopt.core.result import BoundKind
+from voiopt.core.policy_value import DEFAULT_SAMPLES, exact_value, monte_carlo_value
+from voiopt.core.result import BoundKind, Evaluation
+from voiopt.core.scenarios import sample_scenarios
 from voiopt.mdp import robot as mdp_mod
 from voiopt.runtime.progress import progress_bar, text_column
 from voiopt.runtime.status import Status
@@ -86,7 +87,9 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
         beta: float, gamma: float, q_init: float, penalty: float, time_limit: float | None, memory_limit: float,
         slot_in_state: bool, reward_units: str, settings: dict, samples: int = DEFAULT_SAMPLES,
         ir_samples: int = 0):
-    """Train on sampled outcomes; return the greedy policy's Result (value evaluated, bound)."""
+    """Train on sampled outcomes; return the greedy policy's Result (value evaluated, bound).
+    One stop rule (time limit, memory limit, Ctrl-C) holds for the training, the evaluation and
+    the bound's solves; the status names the limit that cut any of them short."""
     from voiopt.solvers.policy.relaxation import information_relaxation
     from voiopt.solvers.policy.report import policy_result
     from voiopt.solvers.policy.solver import check_averaged, lossless_optimum
@@ -119,26 +122,80 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
             table.drop_next()
         else:
             table = None
-        stopped = stop.reason if done < episodes else None
+        cuts = [(stop.reason, f"{stop.describe()} after {done} of {episodes} episodes")] if done < episodes else []
         solver = {**settings, "episodes_run": done, "table_states": 0 if table is None else table.n_states,
                   "links": "outcomes drawn"}
-        if stopped:
-            solver["stopped"] = f"{stop.describe()} after {done} of {episodes} episodes"
-    if model is None:
-        model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
-    policy = QPolicy(instance, objective, method, model, table)
-    evaluation = evaluate_policy(policy, objective, samples=samples, seed=seed, max_states=EXACT_STATES)
-    solver["decisions"] = {"from_table": policy.visited, "fallback": policy.unvisited}
-    base = lossless_optimum(instance, objective, None, memory_limit)
-    bound, kind, extra = base.bound, BoundKind.LOSSLESS, {}
-    solver["lossless_bound"] = base.bound
-    if ir_samples:
-        ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound)
-        if ir is not None and not ir["capped"]:
-            bound, kind = ir["bound"], BoundKind.INFORMATION_RELAXATION
-            extra = {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]}
-    return policy_result(instance, method, objective, policy, evaluation, status=stopped or Status.FEASIBLE, bound=bound,
-                         bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)
+        if model is None:
+            model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
+        policy = QPolicy(instance, objective, method, model, table)
+        evaluation, cut, note = evaluate(policy, objective, samples, seed, stop)
+        if cut:
+            cuts.append((cut, note))
+        elif note:
+            solver["evaluation_note"] = note
+        solver["decisions"] = {"from_table": policy.visited, "fallback": policy.unvisited}
+        base = lossless_optimum(instance, objective, follow_on(stop), memory_limit)
+        if base.status in STOPPED:
+            cuts.append((base.status, f"the lossless bound's dp: {base.status}, its proven bound kept"))
+        bound, kind, extra = base.bound, None if base.bound is None else BoundKind.LOSSLESS, {}
+        solver["lossless_bound"] = base.bound
+        if ir_samples and not stop.check():
+            ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound,
+                                        stop=stop)
+            if ir is not None and not ir["capped"]:
+                bound, kind = ir["bound"], BoundKind.INFORMATION_RELAXATION
+                extra = {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]}
+    if cuts:
+        solver["stopped"] = "; ".join(why for _, why in cuts)
+    return policy_result(instance, method, objective, policy, evaluation, status=cuts[0][0] if cuts else Status.FEASIBLE,
+                         bound=bound, bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)
+
+
+STOPPED = (Status.TIME_LIMIT, Status.MEMORY_LIMIT, Status.INTERRUPTED)
+GRACE_S = 0.3  # what a step after a stop still gets: a Monte Carlo value needs a few scenarios
+MIN_SCENARIOS = 2  # a CI needs two; they take milliseconds, and are run whatever the stop rule says
+
+
+def follow_on(stop) -> float | None:
+    """The time limit of a step after training (None: none): what is left of the run's limit,
+    at least GRACE_S; GRACE_S once the rule has said stop. A Ctrl-C reaches every step's own
+    watch, and one that came before it opens stopped."""
+    if stop.check() is not None:
+        return GRACE_S
+    left = stop.remaining()
+    return None if left is None else max(left, GRACE_S)
+
+
+def _why(step, stop) -> str:
+    """Why a step after training stopped: the run's own limit (its grace is no limit of the user's)."""
+    return stop.describe() if stop.check() else step.describe()
+
+
+def evaluate(policy: QPolicy, objective: str, samples: int, seed: int, stop) -> tuple[dict, str | None, str | None]:
+    """The policy's value under the run's stop rule (``follow_on``), the reason that cut its
+    Monte Carlo short (None: not cut) and a note on why it is not exact: exact where its
+    states can be enumerated in time, else Monte Carlo over the coupled scenarios done before
+    the rule said stop (at least MIN_SCENARIOS), with their count."""
+    with watch(follow_on(stop), stop.memory_limit) as exact:
+        try:
+            value = exact_value(policy, objective, EXACT_STATES, stop=exact)
+        except Stopped:
+            value = None
+    if value is not None:
+        return {"value": value, "evaluation": Evaluation.EXACT, "samples": None, "value_ci": None}, None, None
+    scenarios = sample_scenarios(policy.instance, samples, seed)
+    with watch(follow_on(stop), stop.memory_limit) as mc:
+        try:
+            est = monte_carlo_value(policy, scenarios, objective, stop=mc)
+        except Stopped:
+            est = monte_carlo_value(policy, scenarios[:MIN_SCENARIOS], objective)
+    why = (f"exact enumeration stopped ({_why(exact, stop)})" if exact.reason
+           else f"more than {EXACT_STATES:,} states in a slot")
+    note = f"valued by Monte Carlo over {est.count} of {samples} scenarios: {why}" + (
+        f"; Monte Carlo stopped ({_why(mc, stop)})" if mc.reason else "")
+    evaluation = {"value": est.mean, "evaluation": Evaluation.MONTE_CARLO, "samples": est.count,
+                  "value_ci": list(est.ci), "scenario_seed": seed}
+    return evaluation, mc.reason, note
 
 
 def warm_up() -> float:
