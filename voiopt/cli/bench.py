@@ -118,6 +118,9 @@ def cmd_bench_score(args) -> int:
     return 0
 
 
+CHECK_HELP = "the checker: exit 0 valid, 3 illegal plan, 4 wrong claimed value, 5 unreadable file, 2 other bad input"
+
+
 def cmd_bench_check(args) -> int:
     """The checker: exit 0 valid, 3 an illegal plan, 4 a wrong claimed value, 5 an unreadable
     file, 2 other bad input (voiopt.voilib.export.CHECK_CODES, docs/voilib.md)."""
@@ -197,8 +200,7 @@ def add_commands(sub, command, add_executor_options, count) -> None:
     _add_bare(s)
     s.add_argument("--json", action="store_true", help="print the rows as a JSON list (errors still on stderr)")
     s.add_argument("--csv", action="store_true", help="print the rows as CSV")
-    s = command(bench, "check", "the checker: exit 0 valid, 3 illegal plan, 4 wrong claimed value, 5 unreadable "
-                "file, 2 other bad input", cmd_bench_check)
+    s = command(bench, "check", CHECK_HELP, cmd_bench_check)
     s.add_argument("result", metavar="RESULT", help="a result JSON, or a bare plan with --instance")
     _add_bare(s)
     s = command(bench, "certify", "rebuild certificates.json with dp and the MILP (resumable)", cmd_bench_certify)

@@ -157,9 +157,9 @@ def make_figures(
     seed: int = 0,
     seeds: int = 3,
     reward_units: str = "bit/s",
+    progress: bool = False,
     workers: int = 1,
     dask_scheduler: str | None = None,
-    progress: bool = False,
     case_study_instance: Instance | None = None,
 ) -> list[Path]:
     """Reproduce Figs. 3-7 with the proven optimum, and Fig. 8 (several robots, ``robot_networks``

@@ -171,24 +171,27 @@ def _why(step, stop) -> str:
     return stop.describe() if stop.check() else step.describe()
 
 
+def _within(stop, run, otherwise):
+    """(run(rule), rule) under the run's follow-on stop rule, or (otherwise(), rule) where the
+    rule stopped it; the rule's reason says why."""
+    with watch(follow_on(stop), stop.memory_limit) as rule:
+        try:
+            return run(rule), rule
+        except Stopped:
+            return otherwise(), rule
+
+
 def evaluate(policy: QPolicy, objective: str, samples: int, seed: int, stop) -> tuple[dict, str | None, str | None]:
     """The policy's value under the run's stop rule (``follow_on``), the reason that cut its
     Monte Carlo short (None: not cut) and a note on why it is not exact: exact where its
     states can be enumerated in time, else Monte Carlo over the coupled scenarios done before
     the rule said stop (at least MIN_SCENARIOS), with their count."""
-    with watch(follow_on(stop), stop.memory_limit) as exact:
-        try:
-            value = exact_value(policy, objective, EXACT_STATES, stop=exact)
-        except Stopped:
-            value = None
+    value, exact = _within(stop, lambda rule: exact_value(policy, objective, EXACT_STATES, stop=rule), lambda: None)
     if value is not None:
         return {"value": value, "evaluation": Evaluation.EXACT, "samples": None, "value_ci": None}, None, None
     scenarios = sample_scenarios(policy.instance, samples, seed)
-    with watch(follow_on(stop), stop.memory_limit) as mc:
-        try:
-            est = monte_carlo_value(policy, scenarios, objective, stop=mc)
-        except Stopped:
-            est = monte_carlo_value(policy, scenarios[:MIN_SCENARIOS], objective)
+    est, mc = _within(stop, lambda rule: monte_carlo_value(policy, scenarios, objective, stop=rule),
+                      lambda: monte_carlo_value(policy, scenarios[:MIN_SCENARIOS], objective))
     why = (f"exact enumeration stopped ({_why(exact, stop)})" if exact.reason
            else f"more than {EXACT_STATES:,} states in a slot")
     note = f"valued by Monte Carlo over {est.count} of {samples} scenarios: {why}" + (
