@@ -38,7 +38,7 @@ def main() -> None:
         qv = [r.value for r in q]
         how = sorted({r.evaluation or "exact" for r in q})
         rows.append((p, opt, replan, plan, qv, "/".join(how)))
-        print(p, opt.status, opt.value, replan.value, plan.value, qv, flush=True)
+        print(f"p = {p}: done", file=sys.stderr, flush=True)  # progress, not the table
     lines = [
         f"# Value of adaptivity: case study, T = {args.horizon}, {args.objective}, bernoulli links",
         "",
