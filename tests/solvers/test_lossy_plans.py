@@ -37,13 +37,13 @@ def test_plan_methods_report_the_exact_expectation_and_the_lossless_bound(method
         assert r.metrics == expected_metrics(lossy_inst, r.plan)
         assert r.value == r.metrics[objective]
         assert r.solver["lossless_status"] == plain.status and r.solver["lossless_value"] == plain.value
-        if method in PROVEN:
-            assert plain.status == "optimal"
-            assert r.bound_kind == "lossless" and r.bound == pytest.approx(plain.bound, rel=1e-12)
-            maximise = OBJECTIVES[objective] == "max"
-            assert (r.value <= r.bound) if maximise else (r.value >= r.bound)
-        else:
-            assert (r.bound is None) == (r.bound_kind is None)
+        # every plan method's bound is the lossless optimum: its own proof (dp, milp), else dp's
+        optimum = voiopt.solve(inst, "dp", objective)
+        assert optimum.status == "optimal" and r.bound_kind == "lossless"
+        assert r.bound == pytest.approx(plain.bound if method in PROVEN else optimum.bound, rel=1e-12)
+        assert ("lossless_bound" in r.solver) == (method not in PROVEN)
+        maximise = OBJECTIVES[objective] == "max"
+        assert (r.value <= r.bound) if maximise else (r.value >= r.bound)
 
 
 def test_the_lossless_bound_is_no_worse_than_every_plans_expectation():
@@ -64,6 +64,20 @@ def test_fleet_plan_methods_value_the_fleet_plan_exactly():
     for method in ("dp", "greedy"):
         r = voiopt.solve(lossy_inst, method)
         assert r.metrics == expected_metrics(lossy_inst, r.plan) and r.status == "feasible"
+        assert r.bound_kind == "lossless" and r.value <= r.bound
+
+
+@pytest.mark.parametrize("objective", ["min-voi", "max-aoi"])
+def test_qlearning_on_a_bottleneck_objective_gives_its_lossless_plan_valued_exactly(objective):
+    """Its policy would need the running extreme (MODEL.md 11): the lossless plan, open-loop."""
+    inst = tiny_instances(1, seed=44)[0]
+    lossy_inst = lossy(inst, {"model": "bernoulli", "success": 0.6})
+    r = voiopt.solve(lossy_inst, "qlearning", objective, episodes=500, seed=1)
+    plain = voiopt.solve(inst, "qlearning", objective, episodes=500, seed=1)
+    assert r.plan == plain.plan and r.status == "feasible" and r.evaluation == "exact"
+    assert r.metrics == expected_metrics(lossy_inst, r.plan)
+    optimum = voiopt.solve(inst, "dp", objective)
+    assert r.bound_kind == "lossless" and r.bound == pytest.approx(optimum.bound, rel=1e-12)
 
 
 @pytest.mark.parametrize("links", [{"model": "bernoulli", "success": 1}, {"model": "rayleigh", "snr_threshold_db": -1e6}])
@@ -83,7 +97,7 @@ def test_a_lossy_result_round_trips_through_json(tmp_path, case_study):
     path = tmp_path / "r.json"
     r.save(path)
     d = json.loads(path.read_text())
-    assert d["evaluation"] == "exact" and d["bound_kind"] is None and "value_ci" in d
+    assert d["evaluation"] == "exact" and d["bound_kind"] == "lossless" and "value_ci" in d
     assert voiopt.load_result(path).to_dict() == d
     assert "expected, exact" in r.summary()
 

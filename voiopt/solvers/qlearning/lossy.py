@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.links import success_table, without_links
 from voiopt.core.policy import Policy
@@ -221,10 +222,16 @@ def warm_up() -> float:
 
 
 def solve_lossy(instance: Instance, objective: str, reward: str, method: str, options: dict, lossless_run):
-    """Q-learning on a lossy instance: one robot learns from sampled outcomes (``run``); a fleet
-    solves the lossless problem (``lossless_run(instance without links)``), its plan valued exactly."""
-    if instance.fleet:
+    """Q-learning on a lossy instance: one robot learns from sampled outcomes (``run``) for an
+    averaged objective. A fleet, or a bottleneck objective (whose policy would need the running
+    extreme in its state, MODEL.md 11), gets what every plan method gets: the lossless
+    problem's plan (``lossless_run(instance without links)``), open-loop, valued exactly, with
+    the lossless bound where the run has one."""
+    if instance.fleet or not objectives.get(objective).per_slot:
         from voiopt.solvers.lossy_plans import plan_result
 
-        return plan_result(instance, lossless_run(without_links(instance)))
+        result = plan_result(instance, lossless_run(without_links(instance)), options)
+        result.solver["policy"] = ("none: the lossless plan, open-loop (Q-learning learns from outcomes for one "
+                                   "robot and an averaged objective)")
+        return result
     return run(instance, objective, reward, method, **options)
