@@ -23,6 +23,7 @@ import numpy as np
 from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.links import success_table
+from voiopt.core.result import BoundKind
 from voiopt.core.scenarios import CONFIDENCE, sample_scenarios
 from voiopt.errors import OptionError
 from voiopt.grid import lattice as lattice_mod
@@ -77,3 +78,19 @@ def information_relaxation(instance: Instance, objective: str, *, samples: int =
     bound = float(lossless_bound) if capped else limit
     return {"bound": bound, "mean": float(x.mean()), "samples": n, "confidence": CONFIDENCE, "capped": bool(capped),
             "values": x.tolist(), "seed": seed}
+
+
+def policy_bound(instance: Instance, objective: str, lossless: float | None, *, ir_samples: int = 0, seed: int = 0,
+                 stop: Stop | None = None) -> tuple[float | None, BoundKind | None, dict, dict | None]:
+    """A policy's bound: the information relaxation over ``ir_samples`` scenarios (0: none) where
+    it is tighter than the lossless bound (statistical), else the lossless bound (proven).
+    Returns the bound, its kind, the fields Result.lossy takes beside them, and the
+    relaxation's record for the result's ``solver`` (None where it was not used)."""
+    if ir_samples:
+        ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=lossless,
+                                    stop=stop)
+        if ir is not None and not ir["capped"]:
+            return (ir["bound"], BoundKind.INFORMATION_RELAXATION,
+                    {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]},
+                    {k: ir[k] for k in ("mean", "samples", "seed", "capped")})
+    return lossless, None if lossless is None else BoundKind.LOSSLESS, {}, None

@@ -23,14 +23,15 @@ from voiopt.core.instance import Instance
 from voiopt.core.links import without_links
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
-from voiopt.core.result import BoundKind, Evaluation
+from voiopt.core.result import Evaluation
 from voiopt.errors import OptionError
 from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers import options
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
-from voiopt.solvers.policy.relaxation import information_relaxation
+from voiopt.solvers.lossy_plans import lossless_bound
+from voiopt.solvers.policy.relaxation import policy_bound
 from voiopt.solvers.policy.report import policy_result
 from voiopt.solvers.policy.solver import check_averaged
 
@@ -118,14 +119,15 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
             evaluation = {"value": expected_metrics(instance, first.plan)[objective], "evaluation": Evaluation.EXACT}
             solver["stopped"] = stop.describe()
             solver["note"] = "stopped before re-planning was valued: the policy is the slot-0 plan, open-loop"
-        bound, kind, extra = first.bound, BoundKind.LOSSLESS if first.bound is not None else None, {}
-        if ir_samples and evaluation is not None and status == Status.FEASIBLE:
-            ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound, stop=stop)
-            if ir is not None and not ir["capped"]:
-                bound, kind = ir["bound"], BoundKind.INFORMATION_RELAXATION
-                extra = {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]}
-                solver["information_relaxation"] = {k: ir[k] for k in ("mean", "samples", "seed", "capped")}
-    solver["lossless_bound"] = first.bound
+        lossless = first.bound
+        if lossless is None:  # the beam planner proves nothing: dp's bound on the lossless instance
+            lossless, solver["lossless_bound_from"] = lossless_bound(instance, objective, {
+                "time_limit": max(stop.remaining(), 0.3) if stop.time_limit else None, "memory_limit": memory_limit})
+        bound, kind, extra, ir = policy_bound(instance, objective, lossless, seed=seed, stop=stop,
+                                              ir_samples=ir_samples if status == Status.FEASIBLE else 0)
+        if ir is not None:
+            solver["information_relaxation"] = ir
+    solver["lossless_bound"] = lossless
     solver["solves"] = getattr(policy, "solves", 0)
     return policy_result(instance, "replan", objective, policy, evaluation, status=status, bound=bound,
                          bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)

@@ -27,11 +27,11 @@ from voiopt.core.instance import Instance
 from voiopt.core.links import success_table, without_links
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import DEFAULT_SAMPLES, exact_value, monte_carlo_value
-from voiopt.core.result import BoundKind, Evaluation
+from voiopt.core.result import Evaluation
 from voiopt.core.scenarios import sample_scenarios
 from voiopt.mdp import robot as mdp_mod
 from voiopt.runtime.progress import progress_bar, text_column
-from voiopt.runtime.status import Status
+from voiopt.runtime.status import STOPPED, Status
 from voiopt.runtime.stop import MEMORY_LIMIT, Stopped, watch
 from voiopt.solvers.qlearning.kernels import q_row, train
 from voiopt.solvers.qlearning.rng import seed_state
@@ -91,7 +91,7 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
     """Train on sampled outcomes; return the greedy policy's Result (value evaluated, bound).
     One stop rule (time limit, memory limit, Ctrl-C) holds for the training, the evaluation and
     the bound's solves; the status names the limit that cut any of them short."""
-    from voiopt.solvers.policy.relaxation import information_relaxation
+    from voiopt.solvers.policy.relaxation import policy_bound
     from voiopt.solvers.policy.report import policy_result
     from voiopt.solvers.policy.solver import check_averaged, lossless_optimum
 
@@ -138,21 +138,17 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
         base = lossless_optimum(instance, objective, follow_on(stop), memory_limit)
         if base.status in STOPPED:
             cuts.append((base.status, f"the lossless bound's dp: {base.status}, its proven bound kept"))
-        bound, kind, extra = base.bound, None if base.bound is None else BoundKind.LOSSLESS, {}
         solver["lossless_bound"] = base.bound
-        if ir_samples and not stop.check():
-            ir = information_relaxation(instance, objective, samples=ir_samples, seed=seed, lossless_bound=bound,
-                                        stop=stop)
-            if ir is not None and not ir["capped"]:
-                bound, kind = ir["bound"], BoundKind.INFORMATION_RELAXATION
-                extra = {"bound_samples": ir["samples"], "bound_confidence": ir["confidence"]}
+        bound, kind, extra, ir = policy_bound(instance, objective, base.bound, seed=seed, stop=stop,
+                                              ir_samples=0 if stop.check() else ir_samples)
+        if ir is not None:
+            solver["information_relaxation"] = ir
     if cuts:
         solver["stopped"] = "; ".join(why for _, why in cuts)
     return policy_result(instance, method, objective, policy, evaluation, status=cuts[0][0] if cuts else Status.FEASIBLE,
                          bound=bound, bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)
 
 
-STOPPED = (Status.TIME_LIMIT, Status.MEMORY_LIMIT, Status.INTERRUPTED)
 GRACE_S = 0.3  # what a step after a stop still gets: a Monte Carlo value needs a few scenarios
 MIN_SCENARIOS = 2  # a CI needs two; they take milliseconds, and are run whatever the stop rule says
 
