@@ -67,24 +67,28 @@ class GreedyPPO:
                 "slot": np.array([observation["slot"] / inst.horizon], dtype=np.float32)}
 
     def mask(self, observation: dict) -> np.ndarray:
-        """voiopt's legal actions as the env's Discrete numbers (upload + 1) * 5 + move: the env's
-        own mask, but for the last slot, where only "stay" is part of a plan."""
+        """The env's mask over its Discrete numbers (upload + 1) * 5 + move, from voiopt's legal
+        actions: in the last slot every move on the area (the env offers them; p(T) is not part of
+        a plan, so the move is then read as "stay")."""
         t, state = self.reader.observed(observation)
+        p, lat = state[0], self.steps.lat
+        last = t == self.instance.horizon - 1
+        moves = [m for m in range(5) if lat.neighbors[p, m] >= 0] if last else [m for m, _, _ in self.steps.moves(t, p, state[1])]
         mask = np.zeros((self.instance.n_sensors + 1) * 5, dtype=bool)
-        for u in [-1, *self.steps.in_range[state[0]]]:
-            for m, _, _ in self.steps.moves(t, state[0], state[1]):
-                mask[(u + 1) * 5 + m] = True
+        for u in [-1, *self.steps.in_range[p]]:
+            mask[[(u + 1) * 5 + m for m in moves]] = True
         return mask
 
     def __call__(self, observation: dict) -> tuple[int | None, str]:
         a, _ = self.model.predict(self.env_observation(observation), action_masks=self.mask(observation),
                                   deterministic=True)
         a = int(a)
-        return (None if a < 5 else a // 5 - 1), MOVE_NAMES[a % 5]
+        move = "stay" if observation["slot"] == self.instance.horizon - 1 else MOVE_NAMES[a % 5]
+        return (None if a < 5 else a // 5 - 1), move
 
     def check(self, env) -> None:
-        """The observations built here are the env's own, slot by slot, over one greedy episode
-        (else the policy valued would not be the policy trained)."""
+        """The observations and masks built here are the env's own, slot by slot, over one greedy
+        episode (else the policy valued would not be the policy trained)."""
         base = env.unwrapped
         obs, _ = base.reset(seed=0)
         for t in range(self.instance.horizon):
@@ -92,11 +96,14 @@ class GreedyPPO:
             lat = base.lattice
             dist = [self.instance.initial_distance(i) if q == 0 else float(lat.distance[i, q - 1])
                     for i, q in enumerate(qidx)]
-            mine = self.env_observation({"slot": t, "position": lat.points[p].tolist(), "aoi": list(aoi),
-                                         "distance": dist})
+            observation = {"slot": t, "position": lat.points[p].tolist(), "aoi": list(aoi), "distance": dist,
+                           "moves_used": int(base.state[-1])}
+            mine = self.env_observation(observation)
             for key, value in obs.items():
                 if not np.allclose(value, mine[key], atol=1e-6):
                     raise SystemExit(f"slot {t}: the env's observation {key} {value} is not the one built here {mine[key]}")
+            if not np.array_equal(base.action_masks(), self.mask(observation)):
+                raise SystemExit(f"slot {t}: the env's action mask is not the one built here")
             a, _ = self.model.predict(obs, action_masks=base.action_masks(), deterministic=True)
             obs, *_ = base.step(int(a))
 
@@ -174,10 +181,10 @@ def network(name: str, inst: Instance, args, exact: bool) -> list[str]:
         summary[label] = [r.value for r in runs]
     for label, values in summary.items():
         mean = statistics.mean(values)
+        spread = (f"{pct(mean, bound)} [{pct(max(values), bound)}, {pct(min(values), bound)}]" if exact else "-")
         rows.append(f"| {name} | {label}: mean [min, max] over {len(values)} seeds | - | {mean:.6g} "
-                    f"[{min(values):.6g}, {max(values):.6g}] | {pct(mean, bound) if exact else '-'} "
-                    f"[{pct(max(values), bound) if exact else '-'}, {pct(min(values), bound) if exact else '-'}] | "
-                    f"{pct(mean, lossless)} | - |")
+                    f"[{min(values):.6g}, {max(values):.6g}] | {spread} | {pct(mean, lossless)} "
+                    f"[{pct(max(values), lossless)}, {pct(min(values), lossless)}] | - |")
     return rows
 
 
