@@ -142,3 +142,11 @@ def test_the_normalised_env_reward_on_a_lossy_instance_sums_to_the_realised_plan
         assert voiopt.evaluate(inst, plan)["mean-min-voi"] == pytest.approx(total * env.optimum() / inst.horizon,
                                                                            rel=1e-9)
     assert failures > 0
+
+
+def test_a_time_limit_stops_the_monte_carlo_with_the_scenarios_done():
+    inst = _lossy(seed=4, n=2, T=5, p=0.6)
+    r = voiopt.evaluate_function(inst, "mean-min-voi", lambda obs: (None, "stay"), max_states=0, samples=100_000,
+                                 time_limit=0.5)
+    assert r.status == "time_limit" and r.evaluation == Evaluation.MONTE_CARLO
+    assert 2 <= r.samples < 100_000 and "time limit" in r.solver["stopped"]

@@ -12,6 +12,8 @@ without links). ``optimal`` is claimed only for an exact value equal to an exact
 
 A time limit, the memory limit or Ctrl-C stops the Monte Carlo between scenarios: the estimate
 is over the scenarios done (its sample count says how many) and the status names the stop.
+Stopped during the exact enumeration, or before two scenarios were valued, there is no value
+to keep: voiopt.runtime.stop.Stopped is raised.
 """
 
 from __future__ import annotations
@@ -62,7 +64,9 @@ def evaluate_function(instance: Instance, objective: str, act: Act, *, method: s
         bound, bound_kind = base.bound, (None if base.bound is None else BoundKind.LOSSLESS)
     status = Status.FEASIBLE
     with watch(time_limit, memory_limit) as stop:
+        policy.stop = stop  # the enumeration asks at each new state; Monte Carlo between scenarios
         value = exact_value(policy, objective, max_states)
+        policy.stop = None
         if value is not None:
             evaluation = {"value": value, "evaluation": Evaluation.EXACT}
             gap = objectives.gap(value, bound)
