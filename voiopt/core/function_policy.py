@@ -19,7 +19,7 @@ from collections.abc import Callable
 from typing import Any
 
 from voiopt.core.instance import Instance, show
-from voiopt.core.policy import DIGITS, Policy
+from voiopt.core.policy import Policy
 from voiopt.core.steps import MOVE_NAMES
 from voiopt.errors import OptionError
 from voiopt.runtime.stop import Stop, Stopped
@@ -37,13 +37,9 @@ class FunctionPolicy(Policy):
         if instance.fleet:
             raise OptionError(f"instance: a policy is one robot's; {instance.name} has {instance.n_robots} robots")
         super().__init__(instance, objective, method, table={})
-        self.uses_distance = True  # the function sees the distances, whatever the objective reads
+        self.uses_distance = True  # keys hold the distances: the function sees them, whatever the objective reads
         self.function, self.stop = act, stop
         self.calls = 0
-
-    def key(self, t: int, state: tuple) -> tuple:
-        p, k, ages, qs = state
-        return (t, p, k if self.steps.budgeted else 0, tuple(ages), tuple(round(q, DIGITS) for q in qs))
 
     def missing(self, t: int, state: tuple, key: tuple) -> tuple[int, int]:
         if self.stop is not None and self.stop.check() is not None:
