@@ -25,6 +25,8 @@ _HOMES = {
     **dict.fromkeys(("Channel", "Instance", "Links", "Robot", "Sensor", "load", "save"), "voiopt.core.instance"),
     "OBJECTIVES": "voiopt.objectives",
     "Policy": "voiopt.core.policy",
+    "policy_from_function": "voiopt.core.function_policy",
+    "evaluate_function": "voiopt.solvers.policy.function",
     "expected_metrics": "voiopt.core.expectation",
     **dict.fromkeys(("FleetPlan", "Plan", "load_plan"), "voiopt.core.plan"),
     **dict.fromkeys(("Result", "load_result"), "voiopt.core.result"),
@@ -58,6 +60,6 @@ def __dir__() -> list[str]:
 __all__ = [
     "Channel", "FleetPlan", "Instance", "InstanceError", "Links", "METHODS", "OBJECTIVES", "OptionError", "Plan",
     "PlanError", "Policy", "Result", "Robot", "Sensor", "Status", "Trajectory", "VoioptError", "case_study", "evaluate",
-    "expected_metrics",
-    "generate", "generate_set", "load", "load_plan", "load_result", "save", "simulate", "solve",
+    "evaluate_function", "expected_metrics",
+    "generate", "generate_set", "load", "load_plan", "load_result", "policy_from_function", "save", "simulate", "solve",
 ]

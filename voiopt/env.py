@@ -22,9 +22,9 @@ Observation, a Dict of float32 arrays in [0, 1] (docs/qlearning.md):
 Reward: ``reward_mode="paper"`` (MODEL.md section 7: min_i V_i(t+1) in bit/s, or V/B, or
 -max_i A_i(t+1), minus ``penalty`` when nothing is uploaded), or ``"normalised"``: min_i V_i(t+1)
 divided by the instance's certified ``mean-min-voi`` optimum (VoI-Lib's certificate when the
-instance is in VoI-Lib, else dp's), no penalty. Over an episode the plan's ``mean-min-voi`` is
-then (sum of rewards + penalty * infeasible steps) * optimum / T, or, with the paper's VoI
-reward, (sum of rewards + penalty * (idle slots + infeasible steps)) / T
+instance is in VoI-Lib, else dp's; under lossy links, the optimum without them), no penalty.
+Over an episode the (realised) plan's ``mean-min-voi`` is then (sum of rewards + penalty *
+infeasible steps) * optimum / T, or, with the paper's VoI reward, (sum of rewards + penalty * (idle slots + infeasible steps)) / T
 (``info["idle_slots"]``, ``info["infeasible_steps"]``: 0 unless ``infeasible="penalise"``).
 
 Several robots (MODEL.md section 10): a fleet instance makes a ``FleetVoIEnv``, whose action is
@@ -51,6 +51,7 @@ except ImportError as e:  # pragma: no cover - depends on the installed extras
 
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import Instance
+from voiopt.core.links import without_links
 from voiopt.core.plan import Plan
 from voiopt.envs.checks import (
     SAMPLE,
@@ -166,9 +167,10 @@ class VoIEnv(gym.Env):
             from voiopt.voilib import library as voilib
 
             if self.instance not in _OPTIMA:
-                cert = voilib.certified(self.instance, MEAN_MIN_VOI)
+                lossless = without_links(self.instance)  # lossy links: the lossless optimum, a bound on every policy
+                cert = voilib.certified(lossless, MEAN_MIN_VOI)
                 if cert is None:
-                    result = solve(self.instance, "dp", MEAN_MIN_VOI, progress=True)
+                    result = solve(lossless, "dp", MEAN_MIN_VOI, progress=True)
                     if result.status != Status.OPTIMAL:
                         raise OptionError(f"reward_mode: 'normalised' needs a proven optimum, and dp stopped on "
                                           f"{self.instance.name} ({result.status}); use 'paper'")

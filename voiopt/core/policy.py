@@ -92,7 +92,7 @@ class Policy:
 
     def fallback(self, t: int, state: tuple) -> tuple[int, int]:
         steps = self.steps
-        if not self.uses_distance:
+        if not objectives.get(self.objective).voi:
             steps = _aoi_steps(self)
             state = (*state[:3], ())
         return steps.greedy(t, state)
@@ -126,6 +126,12 @@ class Policy:
         except (TypeError, ValueError) as e:
             raise VoioptError(f"observation: malformed ({e})") from None
         return t, (p, k, ages, qs)
+
+    def observation(self, t: int, state: tuple) -> dict[str, Any]:
+        """The observation dict of slot t and a state (``observed``'s inverse)."""
+        x, y = self.steps.lat.points[state[0]]
+        return {"slot": int(t), "position": [float(x), float(y)], "aoi": [int(a) for a in state[2]],
+                "distance": [float(q) for q in state[3]], "moves_used": int(state[1])}
 
     def _move(self, t: int) -> int:
         if t + 1 >= len(self._idx):
@@ -169,8 +175,10 @@ class Policy:
         if kind != "table":
             raise VoioptError(f"kind: must be \"table\" or \"plan\", got {show(kind)}")
         policy = cls(inst, d.get("objective"), str(d.get("method")), table={})
-        lat = policy.steps.lat
-        for n, row in enumerate(d.get("table") or []):
+        lat, rows = policy.steps.lat, d.get("table") or []
+        # a table that keys on distances (a policy given as a function) keeps them under any objective
+        policy.uses_distance = policy.uses_distance or any(isinstance(r, list) and len(r) > 4 and r[4] for r in rows)
+        for n, row in enumerate(rows):
             try:
                 t, pos, k, ages, qs, u, move = row
                 p = lat.index(float(pos[0]), float(pos[1]))
