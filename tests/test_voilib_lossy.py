@@ -185,6 +185,7 @@ def _lossy_source(tmp_path, objective, **change):
     (dict(status="bounded", bound_kind="information-relaxation"), "statistical"),
     (dict(status="bounded", bound_kind="lossless"), "is weaker"),
     (dict(value=9.0, bound=9.0), "disagrees"),
+    (dict(bound_kind=None), "a certificate of a lossy instance says what its numbers are"),
 ])
 def test_merge_never_weakens_an_exact_lossy_certificate(tmp_path, change, why):
     target = tmp_path / "shipped.json"

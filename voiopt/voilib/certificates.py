@@ -89,6 +89,8 @@ def lossy_verdict(old: dict[str, Any], new: dict[str, Any]) -> str | None:
     certificate's ``bound`` is proven (a statistical one is never), ``optimal`` needs an exact
     value and an exact bound, and an exact label is never replaced by a statistical one."""
     kind, evaluation = new.get("bound_kind"), new.get("evaluation")
+    if old.get("bound_kind") is not None and (kind is None or evaluation is None):
+        return "has no bound_kind or evaluation: a certificate of a lossy instance says what its numbers are"
     if kind is not None and kind not in BoundKind.__members__.values():
         return f"has bound_kind {kind!r}, none of {', '.join(k.value for k in BoundKind)}"
     if kind is not None and not BoundKind(kind).proven:
