@@ -1,7 +1,7 @@
 """VoI-Lib's lossy set: the table of ``voiopt bench list --markdown`` (its lossy rows, as the tool
 writes them) and each shipped lossy certificate in detail (what its value and bound are, the
 plan's exact expected value, the value of adaptivity, the information-relaxation bound where
-computed, policy-dp's states and seconds as certify recorded them). With ``--certify``, first
+computed, policy-dp's states and seconds as certify recorded them, the stored policy's size). With ``--certify``, first
 certifies the lossy set afresh into a temporary --work folder (``voiopt bench certify --only``
 with the time limit given) and reports the wall time, and that its certificates agree with
 the shipped ones (``voiopt bench merge-certificates`` into a copy: nothing to change).
@@ -65,8 +65,10 @@ def main() -> None:
     for name in names:
         for objective, c in certs[name]["certificates"].items():
             pdp = c["checks"].get("policy-dp")
-            ran = "-" if pdp is None else (f"{pdp['states']:,} states, {pdp['runtime_s']:.1f} s" if pdp["value"] is not None
+            ran = "-" if pdp is None else (f"{pdp['states']:,} policy states, {pdp['runtime_s']:.1f} s" if pdp["value"] is not None
                                            else f"{pdp['status']} ({pdp['runtime_s']:.0f} s)")
+            if c.get("policy_file"):
+                ran += f", stored ({(voilib.DATA / c['policy_file']).stat().st_size / 1000:.0f} kB)"
             ir = c["information_relaxation"]
             ir = "-" if ir is None else f"{ir['bound']:.6g} ({ir['samples']} scenarios, {ir['confidence']:.0%})"
             adaptivity = f"{100 * gap(c['plan_value'], c['value']):.2f} %" if c["value_of"] == "policy" else "-"

@@ -217,3 +217,42 @@ def test_export_covers_the_lossy_set_and_its_solutions_score(tmp_path, capsys):
         cert = CERTS[SMALL]["certificates"][row["objective"]]
         assert row["value"] == cert["plan_value"] and row["gap_to_bound"] >= 0
         assert row["gap_to_best"] == 0.0 if cert["value_of"] == "plan" else row["gap_to_best"] > 0
+
+
+def test_the_stored_optimal_policies_are_worth_their_certificates_and_score_to_a_zero_gap():
+    """Each exact certificate ships its optimal policy (its file is small): of the instance, of
+    the sha256 the certificate names, and worth the certified value by its own enumeration."""
+    from voiopt.core.policy_value import exact_value
+
+    stored = 0
+    for name in LOSSY:
+        for objective, cert in CERTS[name]["certificates"].items():
+            if cert["status"] != "optimal":
+                assert cert["policy_file"] is None
+                continue
+            path = voilib.DATA / cert["policy_file"]
+            assert lossy.file_hash(path) == cert["policy_sha256"] and path.stat().st_size < lossy.POLICY_LIMIT
+            policy = Policy.load(path)
+            assert voilib.instance_hash(policy.instance) == voilib.instance_hash(LOSSY[name])
+            assert exact_value(policy, objective) == pytest.approx(cert["value"], rel=1e-12), (name, objective)
+            stored += 1
+    assert stored >= 12
+    cert = CERTS[SMALL]["certificates"]["mean-min-voi"]
+    row = voilib.score({"instance": SMALL, "objective": "mean-min-voi",
+                        "solver": {"policy_file": str(voilib.DATA / cert["policy_file"])}})
+    assert row["scored"] == "policy" and row["gap_to_bound"] <= 1e-12 and row["evaluation"] == "exact"
+
+
+def test_merge_refuses_a_stored_policy_that_is_not_worth_its_certificate(tmp_path):
+    target = tmp_path / "shipped.json"
+    target.write_bytes((voilib.DATA / "certificates.json").read_bytes())
+    other = CERTS["lossy-case-study-b70"]["certificates"]["mean-max-aoi"]  # another instance's policy
+    source = _lossy_source(tmp_path, "mean-max-aoi", policy_file=other["policy_file"],
+                           policy_sha256=other["policy_sha256"])
+    with pytest.raises(OptionError, match="missing"):  # the file is not in the source folder
+        voilib_merge.merge(source, target)
+    (source.parent / "policies").mkdir()
+    (source.parent / other["policy_file"]).write_bytes((voilib.DATA / other["policy_file"]).read_bytes())
+    with pytest.raises(OptionError, match="not the certified"):
+        voilib_merge.merge(source, target)
+    assert target.read_bytes() == (voilib.DATA / "certificates.json").read_bytes()

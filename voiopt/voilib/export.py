@@ -71,8 +71,9 @@ are; its cell in the table names the kind of its bound:
 (`information_relaxation`: its one-sided 95 % confidence limit, samples and confidence):
 statistical, never the certificate's bound. `plan_value` is the certificate's plan's exact
 expected value (against `value`, the value of adaptivity where `value_of` is `policy`);
-`lossless_bound` the lossless optimum. Optimal policies are not stored: `voiopt solve --method
-policy-dp` rebuilds one. Its solution file holds the best plan with its `plan_value`.
+`lossless_bound` the lossless optimum. An optimal policy is in `policy_file` (under `policies/`,
+with its `policy_sha256`; `voiopt.Policy.load` reads it). The solution file holds the best plan
+with its `plan_value`.
 
 On a lossy instance `bench score` values a plan by its exact expectation, and a policy (the
 result's `solver.policy_file`, saved beside it by `voiopt solve`) exactly where its states can

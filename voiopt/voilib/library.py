@@ -208,6 +208,7 @@ def export(out_dir: str | os.PathLike, overwrite: bool = False) -> Path:
         name: {**entry, "certificates": {o: {**c, "provenance": provenance(c)} for o, c in entry["certificates"].items()}}
         for name, entry in certs["instances"].items()}}
     write_json_atomic(out / "certificates.json", with_provenance)
+    lossy.copy_policies(certs["instances"], Path(str(DATA)), out)  # the lossy set's optimal policies
     (out / "solutions").mkdir(exist_ok=True)
     for name, doc in solutions.items():
         write_json_atomic(out / "solutions" / name, doc)
@@ -473,6 +474,7 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
             out["instances"][name] = lossy.certify_instance(inst, work, stamp, time_limit=time_limit,
                                                             memory_limit=memory_limit, tick=lambda: bar.advance(task))
     out["instances"] = {n: out["instances"][n] for n in every if n in out["instances"]}  # the library's order
+    lossy.copy_policies({n: out["instances"][n] for n in lossy_lib}, work, target)  # beside certificates.json
     path = target / "certificates.json"
     if only is not None and path.exists():  # --only updates those entries and keeps the others
         kept = read_json(path).get("instances", {})

@@ -13,13 +13,14 @@ A lossy certificate is labelled as section 11 asks (docs/voilib.md, "The lossy s
 
 ``bound`` is always proven (exact or lossless), so the interval [value, bound] means what it
 means for the lossless entries, and ``merge`` compares it the same way. The best known plan is
-the best, in exact expectation, of dp's lossless optima for the four objectives. Optimal
-policies are not stored (the file of the smallest is 0.4 MB, of N = 4, T = 12 over 10 MB):
-``voiopt solve --method policy-dp`` rebuilds one in seconds, and ``bench score`` values anyone's.
+the best, in exact expectation, of dp's lossless optima for the four objectives. An optimal
+policy is stored beside the certificate (``policy_file``, ``policy_sha256``: its table over the
+states it reaches) where its file is under POLICY_LIMIT bytes; otherwise the value alone.
 """
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 from typing import Any
 
@@ -29,10 +30,10 @@ from voiopt.core.instance import Instance
 from voiopt.core.links import is_lossy
 from voiopt.core.policy_value import exact_value
 from voiopt.core.result import OPTIMAL_RTOL, BoundKind, Evaluation
-from voiopt.errors import VoioptError
+from voiopt.errors import OptionError, VoioptError
 from voiopt.networks.generate import generate_set
 from voiopt.objectives import OBJECTIVES, best, gap
-from voiopt.runtime.files import read_json, safe_name, write_json_atomic
+from voiopt.runtime.files import atomic_write, read_json, safe_name, write_json_atomic
 from voiopt.runtime.status import Status
 from voiopt.runtime.stop import watch
 from voiopt.voilib.certificates import make_provenance, today
@@ -55,6 +56,7 @@ LOSSY_LADDER: list[tuple[str, str | dict[str, Any], dict[str, Any]]] = [
 ]
 LOSSY_SEED = 3030
 IR_SAMPLES = 30  # scenarios of the information-relaxation bound, where it is tried
+POLICY_LIMIT = 1_000_000  # bytes: an optimal policy's file is stored beside its certificate below this
 SCORE_SEED, SCORE_SAMPLES = 2031, 1000  # the library's fixed scenarios for a policy too big to value exactly
 
 
@@ -115,8 +117,8 @@ def policy_optimum(inst: Instance, objective: str, time_limit: float, memory_lim
     out = {"status": r.status, "bound": r.bound, "bound_kind": r.bound_kind, "runtime_s": r.runtime_s,
            "states": r.solver.get("policy_states"), "value": None}
     if r.status == Status.OPTIMAL:
-        policy = r.policy
-        out["value"] = exact_value(policy, objective, max_states=len(policy.table) + 1)  # never the programme's
+        out["policy"] = r.policy
+        out["value"] = exact_value(r.policy, objective, max_states=len(r.policy.table) + 1)  # never the programme's
     else:
         out["stopped"] = r.solver.get("stopped")
     return out
@@ -137,10 +139,50 @@ def relaxation(inst: Instance, objective: str, lossless_bound: float, budget: fl
             "capped": ir["capped"], "seed": ir["seed"], "bound_kind": BoundKind.INFORMATION_RELAXATION.value}
 
 
+def policy_name(name: str, objective: str) -> str:
+    """Where a certificate's optimal policy is kept, relative to its certificates.json."""
+    return f"policies/{safe_name(name)}__{objective}.policy.json"
+
+
+def file_hash(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def store_policy(policy, folder: Path, name: str, objective: str) -> dict[str, Any]:
+    """Save an optimal policy under ``folder`` if its file is small (POLICY_LIMIT): the
+    certificate's ``policy_file`` and ``policy_sha256``, or ``policy_file`` None."""
+    rel = policy_name(name, objective)
+    path = folder / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    policy.save(path)
+    if path.stat().st_size >= POLICY_LIMIT:
+        path.unlink()
+        return {"policy_file": None, "policy_sha256": None}
+    return {"policy_file": rel, "policy_sha256": file_hash(path)}
+
+
+def copy_policies(instances: dict[str, Any], source: Path, target: Path) -> None:
+    """Copy the policy files that the certificates of ``instances`` name from the folder
+    ``source`` to ``target`` (each relative to its certificates.json), each checked against its
+    sha256 first; a missing or changed one refuses, naming it."""
+    for entry in instances.values():
+        for cert in entry["certificates"].values():
+            rel = cert.get("policy_file")
+            if rel is None or source.resolve() == target.resolve():
+                continue
+            path = source / rel
+            if not path.is_file() or file_hash(path) != cert.get("policy_sha256"):
+                raise OptionError(f"{path}: policy_file: missing, or not the policy its certificate's sha256 names")
+            (target / rel).parent.mkdir(parents=True, exist_ok=True)
+            with atomic_write(target / rel, binary=True) as f:
+                f.write(path.read_bytes())
+
+
 def certificate_of(inst: Instance, objective: str, results: dict, checks: dict, *, time_limit: float,
-                   memory_limit: float | None, stamp: dict[str, str]) -> dict[str, Any]:
+                   memory_limit: float | None, stamp: dict[str, str], folder: Path) -> dict[str, Any]:
     """The labelled certificate of one lossy instance and objective (the module's docstring);
-    ``stamp`` holds its ``voiopt_version`` and ``instance_sha256``."""
+    ``stamp`` holds its ``voiopt_version`` and ``instance_sha256``; an optimal policy's file
+    goes under ``folder``."""
     objective = objectives.get(objective)
     plan, plan_value, plan_source = best_plan(objective, results)
     lossless_bound = results[objective].bound
@@ -151,11 +193,12 @@ def certificate_of(inst: Instance, objective: str, results: dict, checks: dict, 
     cert: dict[str, Any] = {
         "objective": objective, "links": inst.to_dict()["links"], "plan": plan.to_dict(), "method": "dp",
         "plan_objective": plan_source, "plan_value": plan_value, "plan_evaluation": Evaluation.EXACT.value,
-        "lossless_bound": lossless_bound, "information_relaxation": None, "policy_stored": False,
+        "lossless_bound": lossless_bound, "information_relaxation": None, "policy_file": None, "policy_sha256": None,
         "evaluation": Evaluation.EXACT.value, "samples": None, "value_ci": None,
     }
     if objectives.BY_NAME[objective].per_slot:
         run = policy_optimum(inst, objective, time_limit, memory_limit)
+        policy = run.pop("policy", None)
         runs["policy-dp"] = run
         if run["value"] is not None:
             if gap(run["value"], run["bound"]) > OPTIMAL_RTOL:
@@ -163,7 +206,7 @@ def certificate_of(inst: Instance, objective: str, results: dict, checks: dict, 
                                   f"{run['value']!r}, its programme says {run['bound']!r}")
             cert.update(status="optimal", value=run["value"], bound=run["value"], value_of="policy",
                         bound_kind=BoundKind.EXACT.value, bound_method="policy-dp", value_method="policy-dp",
-                        policy_states=run["states"])
+                        policy_states=run["states"], **store_policy(policy, folder, inst.name, objective))
         else:
             cert["information_relaxation"] = relaxation(inst, objective, lossless_bound, time_limit / 4, memory_limit)
     if "status" not in cert:
@@ -177,7 +220,8 @@ def certify_instance(inst: Instance, work: Path, stamp: dict[str, str], *, time_
                      memory_limit: float | None, tick=lambda: None) -> dict[str, Any]:
     """The certificates of one lossy instance (``stamp``: its ``instance_sha256`` and the
     ``voiopt_version``), each kept in ``work`` as NAME__OBJECTIVE__lossy.json so that an
-    interrupted certification resumes; ``tick()`` after each objective (a progress bar)."""
+    interrupted certification resumes (an optimal policy under ``work/policies``); ``tick()``
+    after each objective (a progress bar)."""
     if not is_lossy(inst):
         raise VoioptError(f"certify: {inst.name} has no lossy links")
     entry: dict[str, Any] = {"sha256": stamp["instance_sha256"], "certificates": {}}
@@ -186,14 +230,15 @@ def certify_instance(inst: Instance, work: Path, stamp: dict[str, str], *, time_
         path = work / f"{safe_name(inst.name)}__{objective}__lossy.json"
         if path.is_file():
             kept = read_json(path)
-            if kept.get("instance_sha256") == entry["sha256"]:
+            rel = kept.get("policy_file")
+            if kept.get("instance_sha256") == entry["sha256"] and (rel is None or (work / rel).is_file()):
                 entry["certificates"][objective] = kept
                 tick()
                 continue
         if results is None:
             results, checks = plans(inst, time_limit, memory_limit)
         cert = certificate_of(inst, objective, results, checks, time_limit=time_limit, memory_limit=memory_limit,
-                              stamp=stamp)
+                              stamp=stamp, folder=work)
         write_json_atomic(path, cert)
         entry["certificates"][objective] = read_json(path)
         tick()
