@@ -256,3 +256,34 @@ def test_merge_refuses_a_stored_policy_that_is_not_worth_its_certificate(tmp_pat
     with pytest.raises(OptionError, match="not the certified"):
         voilib_merge.merge(source, target)
     assert target.read_bytes() == (voilib.DATA / "certificates.json").read_bytes()
+
+
+def test_a_files_monte_carlo_estimate_is_not_refused_but_replaced_by_the_exact_value(tmp_path):
+    cert = CERTS[SMALL]["certificates"]["mean-min-voi"]
+    doc = {"instance": SMALL, "objective": "mean-min-voi", "evaluation": "monte-carlo", "samples": 50,
+           "value_ci": [1.0, 2.0], "value": cert["value"] * 0.97,
+           "solver": {"policy_file": str(voilib.DATA / cert["policy_file"])}}
+    (row,) = _score(_write(tmp_path, doc))
+    assert row["evaluation"] == "exact" and row["value"] == pytest.approx(cert["value"], rel=1e-12)
+    with pytest.raises(OptionError, match="is not what its policy gives"):
+        voilib.score({**doc, "evaluation": "exact"})
+
+
+def test_where_policy_dp_stops_the_certificate_is_bounded_with_the_relaxation_only_beside_it(monkeypatch, tmp_path):
+    """The path of the paper-scale entry, on the small one: policy-dp stopped, the certificate
+    is the best plan's exact value and the lossless bound, and the information relaxation
+    (computed here in about a second) is stored beside it, labelled statistical."""
+    inst, objective = LOSSY[SMALL], "mean-max-aoi"
+    shipped = CERTS[SMALL]["certificates"][objective]
+    results, checks = lossy.plans(inst, 60.0, None)
+    monkeypatch.setattr(lossy, "policy_optimum", lambda *a: {"status": "time_limit", "value": None, "bound": None,
+                                                           "runtime_s": 60.0, "states": None})
+    cert = lossy.certificate_of(inst, objective, results, checks, time_limit=40.0, memory_limit=None,
+                                stamp={"instance_sha256": shipped["instance_sha256"], "voiopt_version": "test"},
+                                folder=tmp_path)
+    assert cert["status"] == "bounded" and cert["bound_kind"] == "lossless" and cert["policy_file"] is None
+    assert (cert["value"], cert["bound"]) == (shipped["plan_value"], shipped["lossless_bound"])
+    ir = cert["information_relaxation"]
+    assert ir["bound_kind"] == BoundKind.INFORMATION_RELAXATION and ir["samples"] == lossy.IR_SAMPLES
+    assert cert["lossless_bound"] < ir["bound"] < shipped["value"]  # tighter than lossless, below the optimum
+    assert "is weaker" in verdict(objective, shipped, cert)  # never replaces the exact certificate

@@ -87,13 +87,17 @@ def label(cert: dict[str, Any]) -> str:
 # ------------------------------------------------------------------------- certification
 
 
+def limits(time_limit: float, memory_limit: float | None) -> dict[str, float]:
+    """A solve's limits: the memory limit only where one was given (else the method's default)."""
+    return {"time_limit": time_limit} | ({} if memory_limit is None else {"memory_limit": memory_limit})
+
+
 def plans(inst: Instance, time_limit: float, memory_limit: float | None) -> tuple[dict, dict]:
     """dp's lossless optimum for each objective, valued exactly on ``inst``: (results by
     objective, checks by objective)."""
     from voiopt.solvers import solve
 
-    limits = {"time_limit": time_limit} | ({} if memory_limit is None else {"memory_limit": memory_limit})
-    results = {o: solve(inst, "dp", o, **limits) for o in OBJECTIVES}
+    results = {o: solve(inst, "dp", o, **limits(time_limit, memory_limit)) for o in OBJECTIVES}
     return results, {o: {"status": r.status, "value": r.value, "bound": r.bound, "runtime_s": r.runtime_s,
                          "lossless_status": r.solver.get("lossless_status")} for o, r in results.items()}
 
@@ -112,8 +116,7 @@ def policy_optimum(inst: Instance, objective: str, time_limit: float, memory_lim
     (``value``), the programme's bound and the states; otherwise the stop's status."""
     from voiopt.solvers import solve
 
-    limits = {"time_limit": time_limit} | ({} if memory_limit is None else {"memory_limit": memory_limit})
-    r = solve(inst, "policy-dp", objective, **limits)
+    r = solve(inst, "policy-dp", objective, **limits(time_limit, memory_limit))
     out = {"status": r.status, "bound": r.bound, "bound_kind": r.bound_kind, "runtime_s": r.runtime_s,
            "states": r.solver.get("policy_states"), "value": None}
     if r.status == Status.OPTIMAL:
