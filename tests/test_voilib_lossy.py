@@ -211,6 +211,9 @@ def test_export_covers_the_lossy_set_and_its_solutions_score(tmp_path, capsys):
     assert code == 0
     readme = (tmp_path / "lib" / "README.md").read_text()
     assert "lossy" in readme and "bernoulli:0.7" in readme and "information-relaxation" in readme
+    for cert in CERTS[SMALL]["certificates"].values():  # the optimal policies beside certificates.json
+        assert cert["policy_file"] is None or lossy.file_hash(tmp_path / "lib" / cert["policy_file"]) == \
+            cert["policy_sha256"]
     picked = sorted((tmp_path / "lib" / "solutions").glob(f"{SMALL}__*.json"))
     assert len(picked) == len(OBJECTIVES)
     for row in _score(*picked):
@@ -287,3 +290,28 @@ def test_where_policy_dp_stops_the_certificate_is_bounded_with_the_relaxation_on
     assert ir["bound_kind"] == BoundKind.INFORMATION_RELAXATION and ir["samples"] == lossy.IR_SAMPLES
     assert cert["lossless_bound"] < ir["bound"] < shipped["value"]  # tighter than lossless, below the optimum
     assert "is weaker" in verdict(objective, shipped, cert)  # never replaces the exact certificate
+
+
+def test_certify_remakes_a_lossy_entry_with_its_policies_resumes_and_merges(tmp_path, capsys):
+    """bench certify on the small entry (seconds): the shipped values and policies again, byte
+    for byte; a second run re-runs nothing; merging it into a copy of the shipped file is
+    accepted and puts the policies beside the copy."""
+    work, into = tmp_path / "work", tmp_path / "into"
+    args = ["bench", "certify", "--work", str(work), "--into", str(into), "--only", SMALL, "--quiet"]
+    assert run_cli(capsys, *args)[0] == 0
+    made = json.loads((into / "certificates.json").read_text())["instances"][SMALL]["certificates"]
+    for objective, cert in made.items():
+        shipped = CERTS[SMALL]["certificates"][objective]
+        assert (cert["status"], cert["value"], cert["bound"], cert["bound_kind"], cert["policy_sha256"]) == \
+            (shipped["status"], shipped["value"], shipped["bound"], shipped["bound_kind"], shipped["policy_sha256"])
+        if cert["policy_file"]:
+            assert lossy.file_hash(into / cert["policy_file"]) == shipped["policy_sha256"]
+    stamps = {p: p.stat().st_mtime_ns for p in work.rglob("*")}
+    assert run_cli(capsys, *args)[0] == 0
+    assert {p: p.stat().st_mtime_ns for p in work.rglob("*")} == stamps  # resumed: nothing re-run
+    target = tmp_path / "copy" / "certificates.json"
+    target.parent.mkdir()
+    target.write_bytes((voilib.DATA / "certificates.json").read_bytes())
+    _, changed = voilib_merge.merge(into, target)
+    assert set(changed) <= {f"{SMALL} {o}" for o in OBJECTIVES}  # accepted (new runtimes, dates)
+    assert all((target.parent / c["policy_file"]).is_file() for c in made.values() if c["policy_file"])
