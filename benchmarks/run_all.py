@@ -50,6 +50,7 @@ RESULTS = {
     "milp_scale": ["milp_scale.py"],
     "milp_vs_dp": ["milp_vs_dp.py"],
     "lossy_expectation": ["lossy_expectation.py"],
+    "voilib_lossy": ["voilib_lossy.py", "--certify"],
     "viewer_open": ["viewer_open.py"],
 }
 

@@ -29,7 +29,8 @@ def test_the_frozen_instances_are_the_ladder():
     assert set(drawn) == set(LIB)
     for name, inst in LIB.items():
         assert voilib.instance_hash(drawn[name]) == voilib.instance_hash(inst), name
-        oracle.check_instance(inst.to_dict())  # the oracle admits every instance
+        oracle.check_instance({k: v for k, v in inst.to_dict().items() if k != "links"})  # the oracle admits
+        # every instance (its network: the oracle is of MODEL.md sections 1-10; links are test_voilib_lossy's)
     rules = [voilib.describe(i)["rules"] for i in LIB.values()]
     assert sum(r != "-" for r in rules) >= 6  # floors with obstacles, a dock and a budget
 
@@ -42,7 +43,7 @@ def test_every_instance_and_objective_is_certified():
         assert set(entry["certificates"]) == set(OBJECTIVES)
 
 
-@pytest.mark.parametrize("name", sorted(LIB))
+@pytest.mark.parametrize("name", sorted(n for n, i in LIB.items() if i.links is None))  # lossy: test_voilib_lossy
 def test_every_certificate_resimulates_to_its_value(name):
     inst = LIB[name]
     for objective, cert in CERTS["instances"][name]["certificates"].items():
@@ -177,7 +178,10 @@ def test_bench_commands(capsys, tmp_path):
     for entry in exported["instances"].values():  # the shipped certificates, each with its provenance
         for cert in entry["certificates"].values():
             assert cert.pop("provenance")["proved_by"]["method"] == cert["bound_method"]
-    assert exported == CERTS and len(list((tmp_path / "lib").glob("*.json"))) == len(LIB) + 1
+    shipped = {**CERTS, "instances": {n: {**e, "certificates": {o: {k: v for k, v in c.items() if k != "provenance"}
+                                                               for o, c in e["certificates"].items()}}
+                                      for n, e in CERTS["instances"].items()}}  # merged ones ship theirs
+    assert exported == shipped and len(list((tmp_path / "lib").glob("*.json"))) == len(LIB) + 1
     honest = tmp_path / "honest.json"
     honest.write_text(json.dumps(_submission("walls-n4-t30-000", "max-aoi", "shortest-path")))
     code, out, _ = run_cli(capsys, "bench", "score", str(honest))

@@ -23,17 +23,15 @@ def cmd_bench_list(args) -> int:
     from voiopt.voilib import library as voilib
 
     rows = voilib.table_rows()
-    cols = ("name", "N", "T", "area", "rules", *OBJECTIVES)
+    cols = voilib.LIST_COLUMNS  # with links; a lossy certificate names its bound's kind
     if args.markdown:
-        lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-        lines += ["| " + " | ".join(str(r[c]) for c in cols) + " |" for r in rows]
-        print("\n".join(lines))
+        print("\n".join(voilib.voilib_export.markdown(rows)))
         return 0
     t = Table(title=f"VoI-Lib {voilib.VERSION}: the optimum, or \\[lower, upper] where still open")
-    for col in ("name", "N", "T", "area", "rules", *OBJECTIVES):
+    for col in cols:
         t.add_column(col, justify="right" if col in ("N", "T") or col in OBJECTIVES else "left")
     for r in rows:
-        t.add_row(*(str(r[c]) for c in ("name", "N", "T", "area", "rules", *OBJECTIVES)))
+        t.add_row(*(str(r[c]) for c in cols))
     wide.print(t)
     return 0
 

@@ -4,10 +4,19 @@ replace another (``verdict``: never weaker, never in disagreement; docs/voilib.m
 from __future__ import annotations
 
 import datetime
+import hashlib
+import json
 from typing import Any
 
-from voiopt.core.result import OPTIMAL_RTOL
+from voiopt.core.instance import Instance
+from voiopt.core.result import OPTIMAL_RTOL, BoundKind, Evaluation
 from voiopt.objectives import OBJECTIVES, gap
+
+
+def instance_hash(inst: Instance) -> str:
+    """sha256 of the instance's canonical JSON (sorted keys, no spaces): its identity."""
+    text = json.dumps(inst.to_dict(), sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def same(a: float, b: float) -> bool:
@@ -56,6 +65,9 @@ def verdict(objective: str, old: dict[str, Any], new: dict[str, Any]) -> str | N
     """Why ``new`` may not replace ``old`` ("disagrees ...", "is weaker ..."), or None if it may:
     their intervals must meet (to the optimality tolerance), a proven optimum stays proven, and
     an open interval does not widen."""
+    why = lossy_verdict(old, new)
+    if why is not None:
+        return why
     (lo_old, hi_old), (lo_new, hi_new) = interval(objective, old), interval(objective, new)
     slack = OPTIMAL_RTOL * max(abs(lo_old), abs(hi_old), abs(lo_new), abs(hi_new), 1e-300)
     if lo_new > hi_old + slack or lo_old > hi_new + slack:
@@ -69,4 +81,24 @@ def verdict(objective: str, old: dict[str, Any], new: dict[str, Any]) -> str | N
     if old["status"] != "optimal" and new["status"] != "optimal" and g_old is not None \
             and (g_new is None or g_new > g_old):
         return f"is weaker: its gap {g_new!r} is wider than the shipped {g_old!r}"
+    return None
+
+
+def lossy_verdict(old: dict[str, Any], new: dict[str, Any]) -> str | None:
+    """The labels of lossy certificates (MODEL.md section 11), checked before the intervals: a
+    certificate's ``bound`` is proven (a statistical one is never), ``optimal`` needs an exact
+    value and an exact bound, and an exact label is never replaced by a statistical one."""
+    kind, evaluation = new.get("bound_kind"), new.get("evaluation")
+    if old.get("bound_kind") is not None and (kind is None or evaluation is None):
+        return "has no bound_kind or evaluation: a certificate of a lossy instance says what its numbers are"
+    if kind is not None and kind not in BoundKind.__members__.values():
+        return f"has bound_kind {kind!r}, none of {', '.join(k.value for k in BoundKind)}"
+    if kind is not None and not BoundKind(kind).proven:
+        return f"is weaker: its bound is {kind}, statistical, where a certificate's bound is proven"
+    if new.get("status") == "optimal" and kind is not None and (kind != BoundKind.EXACT or evaluation != Evaluation.EXACT):
+        return f"claims optimal with a {evaluation} value and a {kind} bound: optimal needs both exact"
+    if old.get("evaluation") == Evaluation.EXACT and evaluation == Evaluation.MONTE_CARLO:
+        return "is weaker: a monte-carlo value would replace an exact one"
+    if old.get("bound_kind") == BoundKind.EXACT and kind != BoundKind.EXACT:
+        return f"is weaker: a {kind} bound would replace an exact one"
     return None

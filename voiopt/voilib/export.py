@@ -16,6 +16,9 @@ CHECK_CODES = {0: "valid: the plan is legal and any value it states is what it g
                5: "unreadable file: missing, a folder, not UTF-8, not JSON, or over the size limit"}
 
 
+COLUMNS = ("name", "N", "T", "area", "rules", "links", *OBJECTIVES)  # the table of bench list and the README
+
+
 def solution_name(name: str, objective: str) -> str:
     """The solution file of an instance and objective, under ``solutions/``."""
     return f"{name}__{objective}.json"
@@ -24,16 +27,20 @@ def solution_name(name: str, objective: str) -> str:
 def solution(name: str, objective: str, sha256: str, cert: dict[str, Any]) -> dict[str, Any]:
     """A certificate's plan as a submission: ``voiopt bench score`` and ``bench check`` read it."""
     return {"instance": name, "instance_sha256": sha256, "objective": objective, "plan": cert["plan"],
-            "value": cert["value"],
+            "value": cert.get("plan_value", cert["value"]),  # lossy: the plan's exact expectation, not the policy's
             "certificate": {"status": cert["status"], "bound": cert["bound"], "provenance": provenance(cert)}}
+
+
+def markdown(rows: list[dict[str, Any]]) -> list[str]:
+    """The table of ``table_rows`` in Markdown, a line each."""
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    return lines + ["| " + " | ".join(str(r[c]) for c in COLUMNS) + " |" for r in rows]
 
 
 def readme(version: str, rows: list[dict[str, Any]]) -> str:
     """The README of an exported VoI-Lib: the table of certified values (``table_rows``), the
     files, and how to score a plan."""
-    cols = ("name", "N", "T", "area", "rules", *OBJECTIVES)
-    table = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    table += ["| " + " | ".join(str(r[c]) for c in cols) + " |" for r in rows]
+    table = markdown(rows)
     codes = "\n".join(f"| {k} | {v} |" for k, v in CHECK_CODES.items())
     return f"""# VoI-Lib {version}
 
@@ -48,19 +55,45 @@ the optimum of an objective (one number), or `[lower, upper]` where the optimum 
 
 `min-voi` and `mean-min-voi` are maximised; `max-aoi` and `mean-max-aoi` are minimised.
 
+## The lossy set
+
+Instances with `links` (MODEL.md section 11: an upload may fail; `links` is `bernoulli:P` or
+`rayleigh:SNR_DB` as `voiopt generate --links` spells them) have lossy certificates. Every
+objective is an expectation over the upload outcomes, and each certificate says what its numbers
+are; its cell in the table names the kind of its bound:
+
+- `(exact)`: `optimal`; the optimal policy's exact value (dynamic programming over the
+  reachable observed states, the policy's table valued again by forward enumeration);
+- `(lossless)`: `bounded`; `value` is the best known plan's exact expected value (`value_of`
+  `plan`) and `bound` the lossless optimum, which bounds every policy (proven).
+
+`bound` is always proven. Where computed, an `information-relaxation` bound is stored beside it
+(`information_relaxation`: its one-sided 95 % confidence limit, samples and confidence):
+statistical, never the certificate's bound. `plan_value` is the certificate's plan's exact
+expected value (against `value`, the value of adaptivity where `value_of` is `policy`);
+`lossless_bound` the lossless optimum. An optimal policy is in `policy_file` (under `policies/`,
+with its `policy_sha256`; `voiopt.Policy.load` reads it). The solution file holds the best plan
+with its `plan_value`.
+
+On a lossy instance `bench score` values a plan by its exact expectation, and a policy (the
+result's `solver.policy_file`, saved beside it by `voiopt solve`) exactly where its states can
+be enumerated, else by Monte Carlo on the library's fixed scenarios, with the 95 % CI and the
+number of scenarios (`evaluation`, `value_ci`, `samples` in `--json`).
+
 ## Files
 
 - `NAME.json`: an instance (MODEL.md section 1). Its identity is the sha256 of its canonical
   JSON: Python's `json.dumps(d, sort_keys=True, separators=(",", ":"))`.
 - `certificates.json`: per instance its `sha256`, and per objective the certificate: `status`
   (`optimal`, or `bounded`: the optimum lies between `value` and `bound`), `value` (the
-  simulated value of `plan`), `bound` (proven), `plan`, `method` and `bound_method`, each
+  simulated value of `plan`; on the lossy set, as above), `bound` (proven), `plan`, `method` and `bound_method`, each
   certifying method's own result in `checks`, and `provenance`: `proved_by` (method,
   voiopt version, UTC date; `null` where the date was not recorded), `found_by` and
   `confirmed_by` (the other methods that proved the same optimum independently).
 - `solutions/NAME__OBJECTIVE.json`: the certificate's plan as a submission (below), with its
   value, and the certificate's status, bound and provenance under `certificate`: scoring it
-  gives a gap of 0.
+  gives a gap of 0 (on the lossy set, where `value` is a policy's, the plan's gap is the value
+  of adaptivity).
 
 ## A plan, and how to score it
 

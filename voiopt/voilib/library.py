@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import os
 from importlib import resources
 from pathlib import Path
@@ -23,6 +22,7 @@ from typing import Any
 from voiopt import objectives
 from voiopt.core import instance as instance_mod
 from voiopt.core.instance import Instance, show
+from voiopt.core.links import is_lossy
 from voiopt.core.plan import Plan
 from voiopt.core.result import Result, agrees, finite
 from voiopt.core.simulate import simulate
@@ -38,11 +38,15 @@ from voiopt.runtime.files import (
     safe_name,
     write_json_atomic,
 )
+from voiopt.runtime.progress import progress_bar
 from voiopt.runtime.status import Status
 from voiopt.voilib import export as voilib_export
-from voiopt.voilib.certificates import make_provenance, provenance, same, today
+from voiopt.voilib import lossy, lossy_score
+from voiopt.voilib.certificates import instance_hash, make_provenance, provenance, same, today
+from voiopt.voilib.lossy_score import ClaimError
 
-VERSION = "1.2"  # a certificate changes only with a new version of the library (1.1: the cover bound; 1.2: two threads)
+VERSION = "1.3"  # a certificate changes only with a new version of the library (1.1: the cover bound; 1.2: two
+# threads; 1.3: the lossy set, voilib.lossy.LOSSY_LADDER)
 DATA = resources.files("voiopt") / "data" / "voilib"
 CERTIFYING_METHODS = ("dp", "milp")
 
@@ -74,7 +78,7 @@ def _version() -> str:
 
 def ladder() -> list[Instance]:
     """The instances of this version, drawn afresh (the frozen files are these, and
-    tests/test_voilib.py checks it): the case study, then each group of LADDER."""
+    tests/test_voilib.py checks it): the case study, each group of LADDER, then the lossy set."""
     out = [case_study()]
     for k, (group, count, spec) in enumerate(LADDER):
         spec = dict(spec)
@@ -83,13 +87,7 @@ def ladder() -> list[Instance]:
         else:
             nets = generate_set(count, seed=LADDER_SEED + k, name=group, **spec)
         out += nets
-    return out
-
-
-def instance_hash(inst: Instance) -> str:
-    """sha256 of the instance's canonical JSON (sorted keys, no spaces): its identity."""
-    text = json.dumps(inst.to_dict(), sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+    return out + lossy.lossy_ladder({inst.name: inst for inst in out})
 
 
 def instances() -> dict[str, Instance]:
@@ -156,7 +154,10 @@ def describe(inst: Instance) -> dict[str, Any]:
     rules = [r for r, on in (("blocked", inst.blocked), ("end", inst.end is not None),
                              ("max_moves", inst.max_moves is not None)) if on]
     return {"name": inst.name, "N": inst.n_sensors, "T": inst.horizon,
-            "area": f"{inst.width:g}x{inst.height:g}", "rules": ",".join(rules) or "-"}
+            "area": f"{inst.width:g}x{inst.height:g}", "rules": ",".join(rules) or "-", "links": lossy.links_text(inst)}
+
+
+LIST_COLUMNS = voilib_export.COLUMNS  # bench list's and the README's
 
 
 def show_certificate(cert: dict[str, Any] | None) -> str:
@@ -164,12 +165,12 @@ def show_certificate(cert: dict[str, Any] | None) -> str:
     if cert is None:
         return "-"
     if cert["status"] == "optimal":
-        return f"{cert['value']:.6g}"
+        return f"{cert['value']:.6g}{lossy.label(cert)}"
     lo, hi = sorted((cert["value"], cert["bound"]))
     digits = 6  # as many as it takes to tell an open interval from a point
     while digits < 17 and f"{lo:.{digits}g}" == f"{hi:.{digits}g}" and lo != hi:
         digits += 1
-    return f"[{lo:.{digits}g}, {hi:.{digits}g}]"
+    return f"[{lo:.{digits}g}, {hi:.{digits}g}]{lossy.label(cert)}"
 
 
 def table_rows() -> list[dict[str, Any]]:
@@ -207,6 +208,7 @@ def export(out_dir: str | os.PathLike, overwrite: bool = False) -> Path:
         name: {**entry, "certificates": {o: {**c, "provenance": provenance(c)} for o, c in entry["certificates"].items()}}
         for name, entry in certs["instances"].items()}}
     write_json_atomic(out / "certificates.json", with_provenance)
+    lossy.copy_policies(certs["instances"], Path(str(DATA)), out)  # the lossy set's optimal policies
     (out / "solutions").mkdir(exist_ok=True)
     for name, doc in solutions.items():
         write_json_atomic(out / "solutions" / name, doc)
@@ -257,12 +259,20 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
         raise OptionError(f"{source}: objective: is required (one of {', '.join(OBJECTIVES)})")
     if not isinstance(objective, str) or objective not in OBJECTIVES:
         raise OptionError(f"{source}: objective: must be one of {', '.join(OBJECTIVES)}, got {show(objective)}")
-    if "plan" not in result:
+    lossy_links = is_lossy(inst)
+    if "plan" not in result and not lossy_links:
         raise OptionError(f"{source}: plan: is required")
     stated = result.get("value")
     if stated is not None and (isinstance(stated, bool) or not isinstance(stated, (int, float))
                                or not finite(stated)):
         raise OptionError(f"{source}: value: must be a finite number (or null, or absent), got {show(stated)}")
+    cert = certificates()["instances"].get(name, {}).get("certificates", {}).get(objective)
+    labels = dict.fromkeys(("evaluation", "samples", "value_ci", "bound_kind", "scored"))
+    if lossy_links:  # a plan's exact expectation, or a policy's value (lossy_score)
+        folder = Path(row_source).parent if row_source else Path(".")
+        labels = lossy_score.measure(result, source, folder, name, inst, objective, stated)
+        labels["bound_kind"] = None if cert is None else cert.get("bound_kind")
+        return _row(row_source, name, objective, labels.pop("value"), result.get("status"), cert, labels)
     try:
         metrics = simulate(inst, Plan.from_dict({"plan": result["plan"]})).metrics  # errors name plan.
     except PlanError as e:  # the instance it was checked against, which a plan of another one would not fit
@@ -280,20 +290,21 @@ def score(result: dict[str, Any], source: str | None = None) -> dict[str, Any]:
                 why = ""
             raise ClaimError(f"{source}: value: {stated!r} is not what its plan gives on VoI-Lib's {name} "
                               f"({value!r} by the simulator): rejected{why}")
-    cert = certificates()["instances"].get(name, {}).get("certificates", {}).get(objective)
-    status = result.get("status")  # a result's own: an interrupted run's plan is scored, and says so
-    row = {"result": row_source, "instance": name, "objective": objective, "value": value,
+    return _row(row_source, name, objective, value, result.get("status"), cert, labels)
+
+
+def _row(source: str | None, name: str, objective: str, value: float, status: Any, cert: dict | None,
+         labels: dict[str, Any]) -> dict[str, Any]:
+    """A score's row: the value, the result's own status (an interrupted run's plan is scored,
+    and says so), the certificate as numbers and text, the gaps, and the lossy labels."""
+    row = {"result": source, "instance": name, "objective": objective, "value": value,
            "status": status if isinstance(status, str) else None,
            "certified": show_certificate(cert), "certified_status": None, "certified_value": None,
-           "certified_bound": None, "gap_to_bound": None, "gap_to_best": None}
+           "certified_bound": None, "gap_to_bound": None, "gap_to_best": None, **labels}
     if cert is not None:
         row.update(certified_status=cert["status"], certified_value=cert["value"], certified_bound=cert["bound"],
                    gap_to_bound=gap(value, cert["bound"]), gap_to_best=behind(objective, value, cert["value"]))
     return row
-
-
-class ClaimError(OptionError):
-    """A submission's stated value is not what its plan gives (``bench check``: exit 4)."""
 
 
 class UnreadableError(OptionError):
@@ -440,8 +451,9 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
     check_manifest(work, {"command": "bench certify", "version": VERSION, "time_limit": time_limit,
                           "memory_limit": memory_limit, "threads": threads}, "--work")  # resume only the same runs
     tasks, plan = [], []
+    lossy_lib = {n: i for n, i in lib.items() if is_lossy(i)}  # certified by lossy.certify_instance
     for name, inst in lib.items():
-        for objective in OBJECTIVES:
+        for objective in OBJECTIVES if name not in lossy_lib else ():
             ts = method_tasks(inst, f"voilib:{name}", CERTIFYING_METHODS, objective, work, group=name,
                               time_limit=time_limit, memory_limit=memory_limit, threads=threads)
             ts = [dataclasses.replace(t, out_path=str(work / f"{safe_name(name)}__{objective}__{t.method}.json"))
@@ -455,6 +467,14 @@ def certify(work_dir: str | os.PathLike, *, time_limit: float = 60.0, memory_lim
         entry = out["instances"].setdefault(name, {"sha256": instance_hash(lib[name]), "certificates": {}})
         results = [load_result(t.out_path) for t in ts]
         entry["certificates"][objective] = certificate_of(lib[name], objective, results)
+    with progress_bar(progress and bool(lossy_lib)) as bar:
+        task = bar.add_task("certifying VoI-Lib's lossy set", total=len(lossy_lib) * len(OBJECTIVES))
+        for name, inst in lossy_lib.items():
+            stamp = {"voiopt_version": _version(), "instance_sha256": instance_hash(inst)}
+            out["instances"][name] = lossy.certify_instance(inst, work, stamp, time_limit=time_limit,
+                                                            memory_limit=memory_limit, tick=lambda: bar.advance(task))
+    out["instances"] = {n: out["instances"][n] for n in every if n in out["instances"]}  # the library's order
+    lossy.copy_policies({n: out["instances"][n] for n in lossy_lib}, work, target)  # beside certificates.json
     path = target / "certificates.json"
     if only is not None and path.exists():  # --only updates those entries and keeps the others
         kept = read_json(path).get("instances", {})

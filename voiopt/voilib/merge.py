@@ -11,13 +11,34 @@ from voiopt.errors import OptionError
 from voiopt.objectives import OBJECTIVES
 from voiopt.runtime.files import read_json, write_json_atomic
 from voiopt.voilib import library as voilib
-from voiopt.voilib.certificates import provenance, verdict
+from voiopt.voilib import lossy
+from voiopt.voilib.certificates import provenance, same, verdict
 
 
 def source_file(source: str | os.PathLike) -> Path:
     """A certificates.json, or the folder holding one (``bench certify --into``'s)."""
     p = Path(source)
     return p / "certificates.json" if p.is_dir() else p
+
+
+def check_policy(folder: Path, name: str, objective: str, cert: dict, inst) -> None:
+    """A lossy certificate's stored optimal policy (``policy_file`` under ``folder``) is of its
+    instance, and its exact value, computed again here, is the certificate's value."""
+    from voiopt.core.policy import Policy
+    from voiopt.core.policy_value import exact_value
+
+    if cert.get("policy_file") is None:
+        return
+    path = folder / cert["policy_file"]
+    if not path.is_file() or lossy.file_hash(path) != cert.get("policy_sha256"):
+        raise OptionError(f"{path}: {name} {objective}: policy_file: missing, or not the policy its sha256 names; "
+                          "nothing merged")
+    policy = Policy.load(path)
+    value = exact_value(policy, objective, max_states=len(policy.table) + 1)
+    if voilib.instance_hash(policy.instance) != voilib.instance_hash(inst) or value is None \
+            or not same(value, cert["value"]):
+        raise OptionError(f"{path}: {name} {objective}: the stored policy is worth {value!r}, not the certified "
+                          f"{cert['value']!r} (or is of another instance); nothing merged")
 
 
 def merge(source: str | os.PathLike, target: str | os.PathLike | None = None) -> tuple[Path, list[str]]:
@@ -55,5 +76,11 @@ def merge(source: str | os.PathLike, target: str | os.PathLike | None = None) ->
     old["instances"] = {n: old["instances"][n] for n in lib if n in old["instances"]}  # the library's order
     old["version"] = voilib.VERSION
     if changed:
+        merged = {n: {"certificates": {o: c for o, c in e["certificates"].items() if f"{n} {o}" in changed}}
+                  for n, e in new["instances"].items()}
+        for name, entry in merged.items():
+            for objective, cert in entry["certificates"].items():
+                check_policy(src.parent, name, objective, cert, lib[name])
+        lossy.copy_policies(merged, src.parent, dest.parent)  # before the certificates that name them
         write_json_atomic(dest, old)
     return dest, changed
