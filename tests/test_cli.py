@@ -117,11 +117,28 @@ def test_generate_refuses_to_replace_other_instances_of_the_same_name(capsys, tm
     after = {p.name: voiopt.load(p) for p in tmp_path.iterdir()}
     assert after.keys() == before.keys() and all(0.2 <= s.rho <= 0.3 for i in after.values() for s in i.sensors)
 
+
+def test_generate_out_ending_in_json_is_the_file_itself(capsys, tmp_path):
+    """``--out net.json`` writes that file (not a folder of that name), refuses to replace
+    another instance there, and a set of several networks still needs a folder."""
+    target = tmp_path / "net.json"
+    args = ["generate", "--sensors", "2", "--horizon", "6", "--seed", "4", "--links", "bernoulli:0.7"]
+    code, out, _ = run_cli(capsys, *args, "--out", str(target))
+    assert code == 0 and target.is_file() and str(target) in out
+    assert voiopt.load(target) == voiopt.generate(2, 6, seed=4, links={"model": "bernoulli", "success": 0.7})
+    before = target.read_text()
+    code, _, err = run_cli(capsys, *args[:-3], "5", "--out", str(target))
+    assert code == 2 and "already holds another instance" in one_line_error(err) and target.read_text() == before
+    assert run_cli(capsys, *args[:-3], "5", "--out", str(target), "--overwrite")[0] == 0
+    assert voiopt.load(target) == voiopt.generate(2, 6, seed=5)
+    code, _, err = run_cli(capsys, "generate", "--count", "2", "--out", str(tmp_path / "set.json"))
+    assert code == 2 and "a folder, not the file" in one_line_error(err) and not (tmp_path / "set.json").exists()
+
 @pytest.mark.parametrize(
     "argv,message",
     [
         (["generate", "--sensors", "0"], "sensors: must be an integer >= 1"),
-        (["generate", "--count", "3"], "--count: more than one network needs --out DIR"),
+        (["generate", "--count", "3"], "--count: 3 networks need --out DIR, a folder"),
         (["generate", "--rho", "0.5", "2"], "rho: must be a range"),
         (["solve", CASE, "--method", "nope"], "method: unknown method 'nope'"),
         (["solve", CASE, "--time-limit", "-1"], "--time-limit: must be a number of seconds > 0"),

@@ -29,7 +29,7 @@ from voiopt.errors import OptionError, PlanError, VoioptError, WorkerDied
 from voiopt.grid import lattice
 from voiopt.mdp.robot import REWARD_UNITS
 from voiopt.networks import fields
-from voiopt.networks.generate import MAX_COUNT, PRESETS, generate_set, write_set
+from voiopt.networks.generate import MAX_COUNT, PRESETS, generate_set, write_one, write_set
 from voiopt.networks.generate import generate as generate_one
 from voiopt.objectives import DEFAULT, OBJECTIVES
 from voiopt.runtime import numba_start
@@ -120,14 +120,18 @@ def _generate_options(args) -> dict:
 
 def cmd_generate(args) -> int:
     kwargs = _generate_options(args)
-    if args.out is None:
+    one_file = args.out is not None and args.out.endswith(".json") and not Path(args.out).is_dir()
+    if args.out is None or one_file:
         if args.count != 1:
-            raise OptionError("--count: more than one network needs --out DIR")
-        if args.preset == "factory":
-            inst = fields.factory(seed=args.seed, name=args.name, **kwargs)
+            raise OptionError(f"--count: {args.count} networks need --out DIR, a folder"
+                              + (f", not the file {args.out!r}" if one_file else ""))
+        maker = fields.factory if args.preset == "factory" else generate_one
+        inst = maker(seed=args.seed, name=args.name, **kwargs)
+        if one_file:
+            write_one(inst, args.out, overwrite=args.overwrite)
+            out.print(f"wrote {inst.name} to {args.out}", markup=False)
         else:
-            inst = generate_one(seed=args.seed, name=args.name, **kwargs)
-        print(json.dumps(inst.to_dict(), indent=2))
+            print(json.dumps(inst.to_dict(), indent=2))
         _note_stranded([inst])
         return 0
     check_output_dir(args.out, "--out")
@@ -347,7 +351,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--name", default=None,
                    help="name of the instance, or prefix of a set's (-000, -001, ... follow); default nN-tT-seedS, "
                         "and for the factory preset factory-nN-tT-seedS alone, factory-seedS in a set")
-    s.add_argument("--out", default=None, metavar="DIR", help="write files here (else print one to stdout)")
+    s.add_argument("--out", default=None, metavar="DIR", help="write files in this folder (else print one to stdout); "
+                   "with --count 1, a path ending in .json is the file itself")
     s.add_argument("--overwrite", action="store_true",
                    help="replace files in --out that hold other instances (default: refuse, write nothing)")
 

@@ -118,6 +118,18 @@ def write_set(instances: list[Instance], out_dir: str | os.PathLike, *, overwrit
     return paths
 
 
+def write_one(instance: Instance, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+    """Write one instance to the file ``path``; with ``overwrite=False``, refuse (writing
+    nothing) if the file holds another instance."""
+    p = Path(path)
+    files.check_output_file(p, "--out")
+    if not overwrite and p.exists() and not _holds(p, instance):
+        raise OptionError(f"--out: {p} already holds another instance; choose another --out, or --overwrite to "
+                          "replace it")
+    instance_mod.save(instance, p)
+    return p
+
+
 def _holds(path: Path, inst: Instance) -> bool:
     """The file is this instance, as save() writes it."""
     try:
