@@ -150,3 +150,20 @@ def test_a_time_limit_stops_the_monte_carlo_with_the_scenarios_done():
                                  time_limit=0.5)
     assert r.status == "time_limit" and r.evaluation == Evaluation.MONTE_CARLO
     assert 2 <= r.samples < 100_000 and "time limit" in r.solver["stopped"]
+
+
+def test_the_other_averaged_objective_is_given_unless_the_stop_rule_says_stop():
+    """A policy's exact result holds both averaged objectives; the second enumeration honours
+    the run's stop rule, and once it says stop that metric is left out, with a note."""
+    from voiopt.runtime.stop import Stop
+    from voiopt.solvers.policy.report import policy_result
+
+    inst = _lossy(seed=2)
+    best = voiopt.solve(inst, "policy-dp", "mean-min-voi")
+    assert best.metrics["mean-max-aoi"] == pytest.approx(exact_value(best.policy, "mean-max-aoi"), rel=1e-12)
+    stop = Stop()
+    stop.request()
+    r = policy_result(inst, "policy-dp", "mean-min-voi", best.policy, {"value": best.value, "evaluation": "exact"},
+                      status="optimal", bound=best.bound, bound_kind=BoundKind.EXACT, runtime_s=0.0, stop=stop)
+    assert "mean-max-aoi" not in r.metrics and "mean-max-aoi not computed" in r.solver["metrics_note"]
+    assert r.value == best.value

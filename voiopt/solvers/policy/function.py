@@ -82,4 +82,4 @@ def evaluate_function(instance: Instance, objective: str, act: Act, *, method: s
                 solver["stopped"] = stop.describe()
     solver["decisions"] = policy.calls
     return policy_result(instance, method, objective, policy, evaluation, status=status, bound=bound,
-                         bound_kind=bound_kind, runtime_s=time.perf_counter() - t0, solver=solver)
+                         bound_kind=bound_kind, runtime_s=time.perf_counter() - t0, solver=solver, stop=stop)

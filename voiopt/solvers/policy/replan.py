@@ -130,7 +130,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     solver["lossless_bound"] = lossless
     solver["solves"] = getattr(policy, "solves", 0)
     return policy_result(instance, "replan", objective, policy, evaluation, status=status, bound=bound,
-                         bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)
+                         bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra, stop=stop)
 
 
 def _lossless(instance: Instance, objective: str, planner: str):

@@ -14,21 +14,27 @@ from voiopt.core.instance import Instance
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import AVERAGED, exact_value
 from voiopt.core.result import Evaluation, Result
+from voiopt.runtime.stop import Stop, Stopped
 
 
 def policy_result(instance: Instance, method: str, objective: str, policy: Policy, evaluation: dict, *,
                   status: str, bound: float | None, bound_kind: str | None, runtime_s: float,
                   solver: dict[str, Any] | None = None, bound_samples: int | None = None,
-                  bound_confidence: float | None = None) -> Result:
+                  bound_confidence: float | None = None, stop: Stop | None = None) -> Result:
     """A Result for ``policy`` whose value and evaluation are ``evaluation`` (policy_value's
     fields: value, evaluation, and samples and value_ci for Monte Carlo). Where the value is
-    exact, both averaged objectives are given exactly in ``metrics``."""
+    exact, both averaged objectives are given exactly in ``metrics``: the other one's
+    enumeration honours ``stop`` (the run's stop rule), and is left out once it says stop."""
     solver = dict(solver or {})
     metrics = {objective: float(evaluation["value"])}
     if evaluation["evaluation"] == Evaluation.EXACT:
         for name in AVERAGED:
             if name != objective:
-                other = exact_value(policy, name)
+                try:
+                    other = exact_value(policy, name, stop=stop)
+                except Stopped:
+                    solver["metrics_note"] = f"{name} not computed: {stop.describe()}"
+                    continue
                 if other is not None:
                     metrics[name] = other
     if evaluation.get("scenario_seed") is not None:

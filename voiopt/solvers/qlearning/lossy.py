@@ -146,7 +146,7 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
     if cuts:
         solver["stopped"] = "; ".join(why for _, why in cuts)
     return policy_result(instance, method, objective, policy, evaluation, status=cuts[0][0] if cuts else Status.FEASIBLE,
-                         bound=bound, bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra)
+                         bound=bound, bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra, stop=stop)
 
 
 GRACE_S = 0.3  # what a step after a stop still gets: a Monte Carlo value needs a few scenarios
