@@ -51,6 +51,8 @@ RESULTS = {
     "milp_vs_dp": ["milp_vs_dp.py"],
     "lossy_expectation": ["lossy_expectation.py"],
     "voilib_lossy": ["voilib_lossy.py", "--certify"],
+    "value_of_adaptivity": ["value_of_adaptivity.py"],
+    "qlearning_lossy": ["qlearning_lossy.py"],
     "viewer_open": ["viewer_open.py"],
 }
 
