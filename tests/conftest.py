@@ -31,6 +31,13 @@ def run_cli(capsys, *argv):
     return code, captured.out, captured.err
 
 
+def one_line_error(err: str) -> str:
+    """The one line of a refusal on stderr (no traceback, nothing else)."""
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
 def tiny_instances(count: int = 30, seed: int = 12345) -> list[voiopt.Instance]:
     """A varied set of tiny networks: normal, low-VoI (rho small, long horizon), low power."""
     out = []

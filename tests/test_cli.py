@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, run_cli
+from conftest import ROOT, one_line_error, run_cli
 
 import voiopt
 from voiopt.cli.main import main
@@ -22,13 +22,6 @@ CASE = str(ROOT / "instances" / "case-study.json")
 PLAN = str(ROOT / "instances" / "case-study.plan.json")
 
 
-
-
-def one_line_error(err: str) -> str:
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err
-    return lines[0]
 
 
 def test_validate_ok_and_bad(capsys, tmp_path):

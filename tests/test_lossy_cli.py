@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import ROOT, run_cli
+from conftest import ROOT, one_line_error, run_cli
 
 import voiopt
 from voiopt.cli.lossy import parse_links
@@ -85,3 +85,45 @@ def test_plot_of_a_lossy_result_checks_its_expected_metrics(capsys, tmp_path):
     assert code == 0 and (tmp_path / "r.png").stat().st_size > 0
     code, _, err = run_cli(capsys, "plot", str(tmp_path / "r.json"), "--instance", CASE, "-o", str(tmp_path / "s.png"))
     assert code == 2 and "does not give what the result says" in err  # the lossless instance: other values
+
+
+def _tiny_file(tmp_path, p=0.5, T=5):
+    from oracles.expectimax import tiny
+
+    path = tmp_path / "tiny.json"
+    path.write_text(json.dumps(tiny(2, 3, T, {"model": "bernoulli", "success": p})))
+    return str(path)
+
+
+def test_solve_labels_a_monte_carlo_value_its_bound_and_its_gap(capsys, tmp_path):
+    """A Monte Carlo value is never under a title that says exact; its gap is an estimate; a
+    statistical bound says so, and so does its gap."""
+    path = _tiny_file(tmp_path)
+    code, out, _ = run_cli(capsys, "solve", path, "--method", "qlearning", "--episodes", "2000", "--samples", "50")
+    assert code == 0 and "expected, exact" in out and "(lossless, proven)" in out and "(proven)" in out
+    # more states than the exact enumeration takes: Monte Carlo
+    from voiopt.solvers.qlearning import lossy
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(lossy, "EXACT_STATES", 1)
+        code, out, _ = run_cli(capsys, "solve", path, "--method", "qlearning", "--episodes", "2000", "--samples", "50")
+    assert code == 0 and "monte-carlo, 50 scenarios" in out and "(estimate)" in out
+    assert "Monte Carlo estimates over 50 scenarios" in out and "(exact, lossy links)" not in out
+    code, out, _ = run_cli(capsys, "solve", path, "--method", "replan", "--ir-samples", "10")
+    assert code == 0 and "(information-relaxation, statistical)" in out and "(statistical)" in out
+
+
+def test_a_policy_that_meets_the_lossless_bound_is_feasible_with_a_proven_zero_gap(capsys):
+    """MODEL.md 11: optimal needs an exact bound; re-planning on a lossless instance meets the
+    lossless bound, a proven gap of 0, and is not called optimal."""
+    code, out, _ = run_cli(capsys, "solve", CASE, "--method", "replan")
+    assert code == 0 and "replan  mean-min-voi: feasible" in out and "gap 0 % (proven)" in out
+
+
+@pytest.mark.parametrize("flag,value", [("--samples", "1"), ("--samples", "0"), ("--samples", "-5"),
+                                         ("--ir-samples", "1"), ("--ir-samples", "-2")])
+def test_scenario_counts_are_refused_before_any_work(capsys, tmp_path, flag, value):
+    code, _, err = run_cli(capsys, "solve", _tiny_file(tmp_path), "--method", "qlearning", "--episodes", "1e9", flag,
+                           value)
+    line = one_line_error(err)
+    assert code == 2 and flag.lstrip("-").replace("-", "_") in line and f"got {value}" in line

@@ -11,6 +11,7 @@ from typing import Any
 from voiopt.core.expectation import expected_metrics
 from voiopt.core.instance import Instance, show
 from voiopt.core.links import is_lossy
+from voiopt.core.result import Evaluation
 from voiopt.errors import OptionError
 
 LINKS_HELP = ("lossy links (MODEL.md section 11): bernoulli:P, every upload succeeds with probability P in (0, 1]; "
@@ -56,9 +57,15 @@ def title(instance: Instance) -> str:
     return f"{instance.name}: expected objectives over the upload outcomes (exact, lossy links)"
 
 
-def solve_title(instance: Instance) -> str:
-    """``solve``'s metrics table is untitled, but on a lossy instance it says what its numbers are."""
-    return title(instance) if is_lossy(instance) else ""
+def solve_title(instance: Instance, result) -> str:
+    """``solve``'s metrics table is untitled, but on a lossy instance it says what its numbers
+    are: exact expectations, or Monte Carlo estimates (whose CI and count the summary gives)."""
+    if not is_lossy(instance):
+        return ""
+    if result.evaluation == Evaluation.MONTE_CARLO:
+        return (f"{instance.name}: expected objectives over the upload outcomes (Monte Carlo estimates over "
+                f"{result.samples} scenarios, lossy links; the value's 95 % CI is above)")
+    return title(instance)
 
 
 def evaluation_json(instance: Instance, values: dict[str, float]) -> dict[str, Any]:

@@ -46,9 +46,9 @@ err = Console(stderr=True, highlight=False, soft_wrap=True)
 _seed, _positive = at_least(0), at_least(1)
 
 
-def _metrics_table(rows: dict[str, dict[str, float]], title: str = "") -> Table:
+def _metrics_table(rows: dict[str, dict[str, float]], title: str = "", first: str = "plan") -> Table:
     table = Table(title=title or None)
-    table.add_column("plan")
+    table.add_column(first)
     for m in OBJECTIVES:
         table.add_column(m, justify="right")
     for name, metrics in rows.items():
@@ -183,14 +183,19 @@ def cmd_solve(args) -> int:
         raise OptionError(f"{flag[e.key]}: not an option of method {e.method!r} (on the command line it takes "
                           f"{', '.join(flag[k] for k in e.takes if k in flag) or 'none of its options'})") from None
     result = cli_policy.save_policy(policy_out, result)
+    if (note := cli_policy.policy_note(policy_out, result)) and not args.quiet:
+        err.print(note, markup=False)
     if args.output:
         result.save(args.output)
     if args.json:
         print(dumps_json(result.to_dict()))
     elif not args.quiet:
         out.print(result.summary(), markup=False)
-        out.print(_metrics_table({result.method: result.metrics}, cli_lossy.solve_title(inst)) if result.metrics else
-                  f"no plan{': ' + result.solver['note'] if result.solver.get('note') else ''}", markup=False)
+        if result.metrics:
+            out.print(_metrics_table({result.method: result.metrics}, cli_lossy.solve_title(inst, result), "method"))
+        if result.solver.get("note") or not result.metrics:
+            out.print(f"{'note' if result.metrics else 'no plan'}: {result.solver.get('note', '')}".rstrip(": "),
+                      markup=False)
         if args.output:
             out.print(f"result written to {args.output}", markup=False)
     if result.status == Status.INTERRUPTED:  # the best plan is kept (and written), but the run did not finish

@@ -30,6 +30,7 @@ The file: ``{"format": "voiopt-policy", "version": 1, "kind", "method", "objecti
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Any, NamedTuple
 
@@ -69,6 +70,10 @@ class Policy:
         self.steps = Steps(instance, voi=True)
         if plan is not None:
             self._idx, self._sched = check_plan(instance, plan)
+
+    def __repr__(self) -> str:
+        what = f"a table of {len(self.table)} states" if self.kind == "table" else "an open-loop plan"
+        return f"<Policy: {what}, {self.method}, {self.objective}, instance {self.instance.name!r}>"
 
     # -- acting --------------------------------------------------------------------------------
 
@@ -116,11 +121,25 @@ class Policy:
             p = self.steps.lat.index(float(pos[0]), float(pos[1])) if len(pos) == 2 else None
             if p is None:
                 raise VoioptError(f"observation.position: not a lattice point, got {show(pos)}")
-            ages = tuple(int(a) for a in obs["aoi"])
-            qs = tuple(float(q) for q in obs["distance"])
+            ages, qs = list(obs["aoi"]), list(obs["distance"])
             if len(ages) != N or len(qs) != N:
                 raise VoioptError(f"observation: aoi and distance need {N} entries, got {len(ages)} and {len(qs)}")
-            k = int(obs["moves_used"]) if self.steps.budgeted else 0
+            for i, a in enumerate(ages):
+                if not _whole(a) or a < 1:
+                    raise VoioptError(f"observation.aoi[{i}]: must be an integer >= 1, got {show(a)}")
+            for i, q in enumerate(qs):
+                if isinstance(q, bool) or not isinstance(q, (int, float)) or not 0 <= q < math.inf:
+                    raise VoioptError(f"observation.distance[{i}]: must be a finite number >= 0, got {show(q)}")
+            ages, qs = tuple(int(a) for a in ages), tuple(float(q) for q in qs)
+            k = 0
+            if self.steps.budgeted:
+                k = obs["moves_used"]
+                if not _whole(k) or not 0 <= k <= inst.max_moves:
+                    raise VoioptError(f"observation.moves_used: must be an integer from 0 to {inst.max_moves}, "
+                                      f"got {show(k)}")
+                k = int(k)
+        except VoioptError:
+            raise
         except KeyError as e:
             raise VoioptError(f"observation: missing field {e}") from None
         except (TypeError, ValueError) as e:
@@ -191,10 +210,9 @@ class Policy:
         return policy
 
 
-def beside(result_path: str | os.PathLike) -> str:
-    """RESULT.policy.json for a result file RESULT.json (or RESULT): where a policy is saved."""
-    text = str(result_path)
-    return (text[:-5] if text.endswith(".json") else text) + ".policy.json"
+def _whole(x: Any) -> bool:
+    """An integer, or a float with an integer's value (JSON may give 3.0); not a bool."""
+    return not isinstance(x, bool) and (isinstance(x, int) or (isinstance(x, float) and x.is_integer()))
 
 
 def table_of(rows, objective: str, instance: Instance, method: str) -> Policy:

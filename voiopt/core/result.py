@@ -109,7 +109,7 @@ class Result:
               solver: dict[str, Any] | None = None) -> Result:
         """A result on a lossy instance (MODEL.md section 11): ``metrics`` are expectations,
         computed as ``evaluation`` says (never a solver's number). ``optimal`` is claimed only
-        with an exact value equal, to a relative 1e-6, to an exact bound."""
+        with an exact value equal, to a relative 1e-6, to an exact bound (MODEL.md section 11)."""
         objective, status = objectives.get(objective), _status(status)
         try:
             evaluation, bound_kind = Evaluation(evaluation), None if bound_kind is None else BoundKind(bound_kind)
@@ -168,6 +168,14 @@ class Result:
             raise VoioptError(f"result: missing or malformed field {e}") from None
 
     def save(self, path: str | os.PathLike) -> None:
+        """Write the result as JSON (atomically). A policy's result (one with a ``policy``, which
+        its JSON cannot hold) saves the policy first, at RESULT.policy.json beside it, and names
+        that file in ``solver.policy_file``, unless it already names one."""
+        policy = getattr(self, "policy", None)
+        if policy is not None and "policy_file" not in self.solver:
+            target = beside(path)
+            policy.save(target)
+            self.solver["policy_file"] = os.path.basename(target)
         write_json_atomic(path, self.to_dict())
 
     def summary(self) -> str:
@@ -180,7 +188,11 @@ class Result:
             how = "exact" if self.evaluation == Evaluation.EXACT else f"monte-carlo, {self.samples} scenarios, 95 % CI " + (
                 "-" if self.value_ci is None else f"[{self.value_ci[0]:.6g}, {self.value_ci[1]:.6g}]")
             val = f"{val} (expected, {how})"
-            bnd = f"{bnd} ({self.bound_kind})" if self.bound is not None else bnd
+            if self.bound is not None:
+                bnd = f"{bnd} ({self.bound_kind}, {'proven' if self.bound_kind.proven else 'statistical'})"
+            if self.gap is not None:
+                gap += " (" + ("estimate" if self.evaluation != Evaluation.EXACT else
+                               "proven" if self.bound_kind.proven else "statistical") + ")"
         return (
             f"{self.instance}  {self.method}  {self.objective}: {self.status}  "
             f"value {val}  bound {bnd}  gap {gap}  ({self.runtime_s:.2f} s{compiled})"
@@ -270,3 +282,9 @@ def _jsonable(obj: Any) -> Any:
     if isinstance(obj, float) and not math.isfinite(obj):
         return str(obj)
     return obj
+
+
+def beside(result_path: str | os.PathLike) -> str:
+    """RESULT.policy.json for a result file RESULT.json (or RESULT): where a policy is saved."""
+    text = str(result_path)
+    return (text[:-5] if text.endswith(".json") else text) + ".policy.json"

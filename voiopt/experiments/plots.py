@@ -176,7 +176,8 @@ def plot_result(result: Result, instance: Instance, path: str | os.PathLike, whe
     ``where``): else the instance is not the one it was solved on, or the file was edited,
     and its status cannot be put in a title."""
     if result.plan is None:
-        raise OptionError(f"RESULT: the result has no plan (status {result.status})")
+        raise OptionError(f"RESULT: the result has no plan (status {result.status})" + (
+            "; it is a policy's result: voiopt show draws a policy" if result.evaluation is not None else ""))
     metrics = expected_metrics(instance, result.plan)  # re-simulated (exact expectations if lossy): not trusted
     differ = disagreement(result.metrics, metrics) or disagreement({result.objective: result.value}, metrics)
     if differ:

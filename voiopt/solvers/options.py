@@ -11,10 +11,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
+from numbers import Integral
 from typing import Any
 
 from voiopt.errors import OptionError
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
+
+SCENARIO_COUNTS = {"samples": "the scenarios of a Monte Carlo value: a CI needs two",
+                   "ir_samples": "the information relaxation's scenarios, or 0 for none"}
 
 
 class UnknownOption(OptionError):
@@ -34,6 +38,10 @@ class Options:
 
     def __post_init__(self) -> None:
         check_limits(self.time_limit, self.memory_limit)
+        for name, what in SCENARIO_COUNTS.items():  # a method's Monte Carlo counts, before any work
+            v = getattr(self, name, 2)
+            if isinstance(v, bool) or not isinstance(v, Integral) or not (v >= 2 or (v == 0 and name == "ir_samples")):
+                raise OptionError(f"{name}: must be an integer >= 2 ({what}), got {v!r}")
 
     @classmethod
     def names(cls) -> list[str]:
