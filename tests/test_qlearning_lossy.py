@@ -8,6 +8,7 @@ import pytest
 from oracles.expectimax import oracle, tiny
 
 import voiopt
+from voiopt.core import policy_value
 from voiopt.core.instance import from_dict
 from voiopt.core.policy import Policy
 from voiopt.core.policy_value import exact_value
@@ -64,7 +65,7 @@ def test_a_stop_asked_before_the_run_stops_every_step_and_still_values_the_polic
         outer.request(INTERRUPTED)
         r = voiopt.solve(inst, "qlearning", episodes=10**8, seed=0, samples=500)
     assert r.status == "interrupted" and 0 < r.solver["episodes_run"] < 10**8
-    assert r.evaluation == "monte-carlo" and r.samples == lossy.MIN_SCENARIOS
+    assert r.evaluation == "monte-carlo" and r.samples == policy_value.MIN_SCENARIOS
     assert r.value_ci[0] <= r.value <= r.value_ci[1]
     assert "interrupted" in r.solver["stopped"] and "over 2 of 500 scenarios" in r.solver["stopped"]
     assert r.bound_kind == "lossless" and r.value <= r.bound  # the stopped dp's bound is still proven
@@ -79,7 +80,7 @@ def test_a_time_limit_cuts_the_monte_carlo_value_short_and_says_over_how_many_sc
                      | {"links": {"model": "bernoulli", "success": 0.7}})
     r = voiopt.solve(inst, "qlearning", episodes=10**8, seed=0, samples=20_000, time_limit=0.2)
     assert r.status == "time_limit" and r.evaluation == "monte-carlo"
-    assert lossy.MIN_SCENARIOS <= r.samples < 20_000 and r.value_ci[0] <= r.value <= r.value_ci[1]
+    assert policy_value.MIN_SCENARIOS <= r.samples < 20_000 and r.value_ci[0] <= r.value <= r.value_ci[1]
     assert f"over {r.samples} of 20000 scenarios" in r.solver["stopped"] and "Monte Carlo stopped" in r.solver["stopped"]
     assert r.bound_kind == "lossless" and r.value <= r.bound
     assert r.runtime_s < 0.2 + 30  # a coarse sanity bound: without the stop rule, 20,000 runs take a minute

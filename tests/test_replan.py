@@ -48,8 +48,39 @@ def test_replan_with_an_information_relaxation_bound_says_so():
     assert r.to_dict()["bound_kind"] == "information-relaxation" and r.status != "optimal"
 
 
-def test_replan_stopped_by_the_time_limit_keeps_the_open_loop_plan():
+def _slow_solves(monkeypatch, seconds):
+    """Each re-plan takes ``seconds`` longer: a tiny instance with the cost of a large one."""
+    import time
+
+    from voiopt.solvers.policy.replan import ReplanPolicy
+
+    real = ReplanPolicy._replan
+
+    def slow(self, t, state):
+        time.sleep(seconds)
+        return real(self, t, state)
+
+    monkeypatch.setattr(ReplanPolicy, "_replan", slow)
+
+
+def test_replan_stopped_before_two_scenarios_keeps_the_open_loop_plan(monkeypatch):
+    """Not even two scenarios in the time: the slot-0 plan, open-loop, valued exactly."""
+    _slow_solves(monkeypatch, 0.2)
     inst = from_dict(tiny(2, 3, 5, {"model": "bernoulli", "success": 0.5}))
-    r = voiopt.solve(inst, "replan", "mean-min-voi", time_limit=1e-6)
+    r = voiopt.solve(inst, "replan", "mean-min-voi", time_limit=0.1)
     assert r.status == "time_limit" and r.policy.kind == "plan" and r.evaluation == "exact"
-    assert r.bound_kind == "lossless" and r.value <= r.bound
+    assert r.bound_kind == "lossless" and r.value <= r.bound and "open-loop" in r.solver["note"]
+    assert r.runtime_s < 5
+
+
+def test_replan_cut_short_keeps_the_monte_carlo_over_the_scenarios_done(monkeypatch):
+    """The exact enumeration gets half the time; the Monte Carlo keeps what it did in the
+    rest, with its count, and the status names the limit; solves are counted."""
+    _slow_solves(monkeypatch, 0.03)
+    inst = from_dict(tiny(3, 3, 5, {"model": "bernoulli", "success": 0.5}))
+    r = voiopt.solve(inst, "replan", "mean-min-voi", time_limit=1.0, samples=10_000)
+    assert r.status == "time_limit" and r.evaluation == "monte-carlo" and 2 <= r.samples < 10_000
+    assert r.policy.kind != "plan" and r.solver["solves"] > 0 and "Monte Carlo over" in r.solver["evaluation_note"]
+    low, high = r.value_ci
+    assert low <= r.value <= high and r.runtime_s < 5
+

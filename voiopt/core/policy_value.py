@@ -19,7 +19,7 @@ from voiopt.core.policy import Policy
 from voiopt.core.result import Evaluation
 from voiopt.core.scenarios import Estimate, monte_carlo, sample_scenarios
 from voiopt.errors import OptionError
-from voiopt.runtime.stop import Stop, halt_if_asked
+from voiopt.runtime.stop import Stop, Stopped, halt_if_asked, watch
 
 MAX_STATES = 200_000  # states of one slot past which a policy's value is estimated instead
 DEFAULT_SAMPLES = 1000
@@ -113,3 +113,63 @@ def evaluate_policy(policy: Policy, objective: str | None = None, *, samples: in
     est = monte_carlo_value(policy, sample_scenarios(policy.instance, samples, seed), objective)
     return {"value": est.mean, "evaluation": Evaluation.MONTE_CARLO, "samples": est.count, "value_ci": list(est.ci),
             "scenario_seed": seed}
+
+
+GRACE_S = 0.3  # what a step after a stop still gets: a Monte Carlo value needs a few scenarios
+MIN_SCENARIOS = 2  # a CI needs two; they take milliseconds, and are run whatever the stop rule says
+
+
+def follow_on(stop: Stop, share: float = 1.0) -> float | None:
+    """The time limit of a step after the main work (None: none): ``share`` of what is left of
+    the run's limit, at least GRACE_S; GRACE_S once the rule has said stop. A Ctrl-C reaches
+    every step's own watch, and one that came before it opens stopped."""
+    if stop.check() is not None:
+        return GRACE_S
+    left = stop.remaining()
+    return None if left is None else max(left * share, GRACE_S)
+
+
+def _why(step: Stop, stop: Stop) -> str:
+    """Why a step stopped: the run's own limit (a step's grace is no limit of the user's)."""
+    return stop.describe() if stop.check() else step.describe()
+
+
+def _within(stop: Stop, policy: Policy, run, otherwise, share: float = 1.0):
+    """(run(rule), rule) under a follow-on stop rule, or (otherwise(), rule) where the rule
+    stopped it; the rule's reason says why. A policy that decides by solving (it has a
+    ``stop`` attribute: re-planning, a function) asks the same rule between its solves."""
+    with watch(follow_on(stop, share), stop.memory_limit) as rule:
+        asks = hasattr(policy, "stop")
+        before = policy.stop if asks else None
+        if asks:
+            policy.stop = rule
+        try:
+            return run(rule), rule
+        except Stopped:
+            return otherwise(), rule
+        finally:
+            if asks:
+                policy.stop = before
+
+
+def value_under(stop: Stop, policy: Policy, objective: str, samples: int, seed: int, max_states: int = MAX_STATES,
+                exact_share: float = 1.0) -> tuple[dict, str | None, str | None]:
+    """The policy's value under the run's stop rule: the evaluation fields (as
+    ``evaluate_policy``), the reason that cut its Monte Carlo short (None: not cut) and a note
+    on why it is not exact. Exact where its states (at most ``max_states`` a slot) can be
+    enumerated within ``exact_share`` of the time left; else Monte Carlo over the coupled
+    scenarios done before the rule said stop (at least MIN_SCENARIOS), with their count."""
+    value, exact = _within(stop, policy, lambda rule: exact_value(policy, objective, max_states, stop=rule),
+                           lambda: None, exact_share)
+    if value is not None:
+        return {"value": value, "evaluation": Evaluation.EXACT, "samples": None, "value_ci": None}, None, None
+    scenarios = sample_scenarios(policy.instance, samples, seed)
+    est, mc = _within(stop, policy, lambda rule: monte_carlo_value(policy, scenarios, objective, stop=rule),
+                      lambda: monte_carlo_value(policy, scenarios[:MIN_SCENARIOS], objective))
+    why = (f"exact enumeration stopped ({_why(exact, stop)})" if exact.reason
+           else f"more than {max_states:,} states in a slot")
+    note = f"valued by Monte Carlo over {est.count} of {samples} scenarios: {why}" + (
+        f"; Monte Carlo stopped ({_why(mc, stop)})" if mc.reason else "")
+    evaluation = {"value": est.mean, "evaluation": Evaluation.MONTE_CARLO, "samples": est.count,
+                  "value_ci": list(est.ci), "scenario_seed": seed}
+    return evaluation, mc.reason, note

@@ -96,13 +96,14 @@ def monte_carlo(instance: Instance, plan_or_run: Plan | FleetPlan | Callable[[np
     with progress_bar(progress) as bar:
         task = bar.add_task("monte carlo", total=len(scenarios))
         for u in scenarios:
-            try:
+            try:  # a run may stop inside a scenario too (a policy that solves as it goes)
                 halt_if_asked(stop)
+                v = value(u)
             except Stopped:
                 if len(values) < 2:
                     raise
                 break
-            values.append(value(u))
+            values.append(v)
             bar.advance(task)
     return estimate(values)
 

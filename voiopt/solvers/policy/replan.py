@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from voiopt.core.instance import Instance
 from voiopt.core.links import without_links
 from voiopt.core.policy import Policy
-from voiopt.core.policy_value import DEFAULT_SAMPLES, evaluate_policy
+from voiopt.core.policy_value import DEFAULT_SAMPLES, value_under
 from voiopt.core.result import Evaluation
 from voiopt.errors import OptionError
 from voiopt.runtime.progress import progress_bar
@@ -106,18 +106,22 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         policy = ReplanPolicy(instance, objective, planner, stop)
         policy.tick = lambda: bar.update(task, advance=1)
         solver = {"planner": planner}
-        try:
-            evaluation = evaluate_policy(policy, objective, samples=samples, seed=seed, max_states=EXACT_STATES)
+        try:  # exact within half the time left, else Monte Carlo over the scenarios done in time
+            evaluation, cut, why = value_under(stop, policy, objective, samples, seed, EXACT_STATES, exact_share=0.5)
+            if why:
+                solver["evaluation_note"] = why
         except Stopped:
-            evaluation = None
-        status = Status.FEASIBLE if evaluation is not None else stop.reason
+            evaluation, cut = None, stop.check() or Status.TIME_LIMIT
+        status = cut or Status.FEASIBLE
+        if cut:
+            solver["stopped"] = stop.describe() if stop.check() else str(cut)
+        solver["solves"] = policy.solves
         first = policy.first or _lossless(instance, objective, planner)  # the slot-0 solve: its bound, its plan
         if evaluation is None:  # stopped: the open-loop lossless plan (the slot-0 solve), valued exactly
             from voiopt.core.expectation import expected_metrics
 
             policy = Policy(instance, objective, "replan", plan=first.plan)
             evaluation = {"value": expected_metrics(instance, first.plan)[objective], "evaluation": Evaluation.EXACT}
-            solver["stopped"] = stop.describe()
             solver["note"] = "stopped before re-planning was valued: the policy is the slot-0 plan, open-loop"
         lossless = first.bound
         if lossless is None:  # the beam planner proves nothing: dp's bound on the lossless instance
@@ -128,7 +132,6 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
         if ir is not None:
             solver["information_relaxation"] = ir
     solver["lossless_bound"] = lossless
-    solver["solves"] = getattr(policy, "solves", 0)
     return policy_result(instance, "replan", objective, policy, evaluation, status=status, bound=bound,
                          bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra, stop=stop)
 

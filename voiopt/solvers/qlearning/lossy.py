@@ -26,9 +26,7 @@ from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.links import success_table, without_links
 from voiopt.core.policy import Policy
-from voiopt.core.policy_value import DEFAULT_SAMPLES, exact_value, monte_carlo_value
-from voiopt.core.result import Evaluation
-from voiopt.core.scenarios import sample_scenarios
+from voiopt.core.policy_value import DEFAULT_SAMPLES, follow_on, value_under
 from voiopt.mdp import robot as mdp_mod
 from voiopt.runtime.progress import progress_bar, text_column
 from voiopt.runtime.status import STOPPED, Status
@@ -129,7 +127,7 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
         if model is None:
             model = mdp_mod.build(instance, reward, penalty, slot_in_state, reward_units)
         policy = QPolicy(instance, objective, method, model, table)
-        evaluation, cut, note = evaluate(policy, objective, samples, seed, stop)
+        evaluation, cut, note = value_under(stop, policy, objective, samples, seed, EXACT_STATES)
         if cut:
             cuts.append((cut, note))
         elif note:
@@ -147,55 +145,6 @@ def run(instance: Instance, objective: str, reward: str, method: str, *, progres
         solver["stopped"] = "; ".join(why for _, why in cuts)
     return policy_result(instance, method, objective, policy, evaluation, status=cuts[0][0] if cuts else Status.FEASIBLE,
                          bound=bound, bound_kind=kind, runtime_s=time.perf_counter() - t0, solver=solver, **extra, stop=stop)
-
-
-GRACE_S = 0.3  # what a step after a stop still gets: a Monte Carlo value needs a few scenarios
-MIN_SCENARIOS = 2  # a CI needs two; they take milliseconds, and are run whatever the stop rule says
-
-
-def follow_on(stop) -> float | None:
-    """The time limit of a step after training (None: none): what is left of the run's limit,
-    at least GRACE_S; GRACE_S once the rule has said stop. A Ctrl-C reaches every step's own
-    watch, and one that came before it opens stopped."""
-    if stop.check() is not None:
-        return GRACE_S
-    left = stop.remaining()
-    return None if left is None else max(left, GRACE_S)
-
-
-def _why(step, stop) -> str:
-    """Why a step after training stopped: the run's own limit (its grace is no limit of the user's)."""
-    return stop.describe() if stop.check() else step.describe()
-
-
-def _within(stop, run, otherwise):
-    """(run(rule), rule) under the run's follow-on stop rule, or (otherwise(), rule) where the
-    rule stopped it; the rule's reason says why."""
-    with watch(follow_on(stop), stop.memory_limit) as rule:
-        try:
-            return run(rule), rule
-        except Stopped:
-            return otherwise(), rule
-
-
-def evaluate(policy: QPolicy, objective: str, samples: int, seed: int, stop) -> tuple[dict, str | None, str | None]:
-    """The policy's value under the run's stop rule (``follow_on``), the reason that cut its
-    Monte Carlo short (None: not cut) and a note on why it is not exact: exact where its
-    states can be enumerated in time, else Monte Carlo over the coupled scenarios done before
-    the rule said stop (at least MIN_SCENARIOS), with their count."""
-    value, exact = _within(stop, lambda rule: exact_value(policy, objective, EXACT_STATES, stop=rule), lambda: None)
-    if value is not None:
-        return {"value": value, "evaluation": Evaluation.EXACT, "samples": None, "value_ci": None}, None, None
-    scenarios = sample_scenarios(policy.instance, samples, seed)
-    est, mc = _within(stop, lambda rule: monte_carlo_value(policy, scenarios, objective, stop=rule),
-                      lambda: monte_carlo_value(policy, scenarios[:MIN_SCENARIOS], objective))
-    why = (f"exact enumeration stopped ({_why(exact, stop)})" if exact.reason
-           else f"more than {EXACT_STATES:,} states in a slot")
-    note = f"valued by Monte Carlo over {est.count} of {samples} scenarios: {why}" + (
-        f"; Monte Carlo stopped ({_why(mc, stop)})" if mc.reason else "")
-    evaluation = {"value": est.mean, "evaluation": Evaluation.MONTE_CARLO, "samples": est.count,
-                  "value_ci": list(est.ci), "scenario_seed": seed}
-    return evaluation, mc.reason, note
 
 
 def warm_up() -> float:
