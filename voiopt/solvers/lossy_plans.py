@@ -64,7 +64,8 @@ def plan_result(instance: Instance, lossless: Result, options: dict | None = Non
     solver["lossless_status"] = Status(lossless.status).value
     solver["lossless_value"] = lossless.value
     if lossless.bound is None and lossless.plan is not None:
-        bound, solver["lossless_bound"] = lossless_bound(instance, lossless.objective, options or {})
+        bound, solver["lossless_bound_from"] = lossless_bound(instance, lossless.objective, options or {})
+        solver["lossless_bound"] = bound
         lossless = dataclasses.replace(lossless, bound=bound)
     status = Status.FEASIBLE if lossless.status == Status.OPTIMAL else Status(lossless.status)
     if lossless.plan is None:  # infeasible or an error: nothing to value
