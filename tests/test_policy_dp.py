@@ -103,7 +103,7 @@ def test_cli_saves_the_policy_beside_the_result(tmp_path, capsys):
 
 
 def test_stopped_by_the_memory_limit_returns_the_open_loop_plan_and_the_lossless_bound():
-    d = voiopt.load("instances/case-study.json").to_dict() | {"links": {"model": "bernoulli", "success": 0.7}}
+    d = voiopt.load("instances/case-study.json").to_dict() | {"horizon": 12, "links": {"model": "bernoulli", "success": 0.7}}
     inst = from_dict(d)
     r = voiopt.solve(inst, "policy-dp", "mean-min-voi", memory_limit=1e-3)
     assert r.status == "memory_limit" and r.bound_kind == "lossless" and r.evaluation == "exact"
