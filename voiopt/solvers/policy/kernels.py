@@ -92,15 +92,23 @@ def reward(key, voi_model, voi, a_shift, a_mask, q_shift, q_mask):
 @njit(cache=True)
 def expand(keys, lo, hi, t, mv_n, mv_low, up_n, up_u, win_clear, win_set, fields, out):
     """The next states of keys[lo:hi] in slot t, into ``out`` (with repeats); returns how many.
-    A failed upload's next state is the no-upload one of the same move, written once."""
+    A failed upload's next state is the no-upload one of the same move, written once; and a
+    run of keys of equal ages and distances writes each of its no-upload next states once."""
     c = 0
+    seen = np.zeros(np.int64(1) << fields[LOW_BITS], dtype=np.int64)  # the run of equal ages that wrote a position
+    run, last = 0, -1
     for s in range(lo, hi):
         p, k = position(keys[s], fields)
         base = aged(keys[s], fields)
+        if base != last:
+            run, last = run + 1, base
         nm = mv_n[t, p, k]
         for j in range(nm):
-            out[c] = base | mv_low[t, p, k, j]
-            c += 1
+            low = mv_low[t, p, k, j]
+            if seen[low] != run:
+                seen[low] = run
+                out[c] = base | low
+                c += 1
         for ju in range(1, up_n[t, p]):
             u = up_u[t, p, ju]
             won = (base & win_clear[u]) | win_set[u, p]
@@ -159,7 +167,8 @@ def compact(a, n):
 
 @njit(cache=True)
 def merge(a, b):
-    """The sorted union of two sorted arrays of distinct keys."""
+    """The sorted union of two sorted arrays of distinct keys (a view of a buffer that had room
+    for both)."""
     out = np.empty(a.shape[0] + b.shape[0], dtype=np.int64)
     i = j = c = 0
     while i < a.shape[0] and j < b.shape[0]:

@@ -56,7 +56,7 @@ class Layered:
         """The optimal policy's exact expected objective (mean VoI, or mean max AoI)."""
         if not self.packing.fits:
             raise ValueError(f"the layered expectimax cannot pack these states: {self.packing.describe()}")
-        tab = self.tab = self.packing.tables()
+        tab = self.tab = self.packing.tables(self.stop)
         self.layers = [np.array([self.packing.encode(self.steps.start_state())], dtype=np.int64)]
         self.states = 1
         for t in range(self.T):
@@ -80,20 +80,24 @@ class Layered:
         chunk = max(1, CHUNK_CHILDREN // per)
         buf = np.empty(min(len(cur), chunk) * per, dtype=np.int64)
         tmp = np.empty_like(buf)
-        runs: list[np.ndarray] = []  # sorted runs of distinct keys, merged as they grow (each about
-        for lo in range(0, len(cur), chunk):  # half the one below it at most)
+        runs: list[np.ndarray] = []  # sorted runs of distinct keys, each under half the one below it
+        for lo in range(0, len(cur), chunk):
             n = kernels.expand(cur, lo, min(len(cur), lo + chunk), t, tab["mv_n"], tab["mv_low"], tab["up_n"],
                                tab["up_u"], tab["win_clear"], tab["win_set"], tab["fields"], buf)
             kernels.radix_sort(buf, n, tmp, self.packing.bits)
             runs.append(buf[:kernels.compact(buf, n)].copy())
-            while len(runs) > 1 and len(runs[-2]) <= 2 * len(runs[-1]):
-                top = runs.pop()
-                runs[-1] = kernels.merge(runs[-1], top)
-            self.check(2 * buf.nbytes + sum(r.nbytes for r in runs))
-        while len(runs) > 1:
+            self.merge_runs(runs, 2, 2 * buf.nbytes)
+        self.merge_runs(runs, 0, 0)
+        return runs[0].copy() if runs else np.empty(0, dtype=np.int64)  # a merge's view keeps the repeats' room
+
+    def merge_runs(self, runs: list[np.ndarray], ratio: int, extra: float) -> None:
+        """Merge the last two runs while the one below is at most ``ratio`` times the last (0:
+        down to one run), looking at the stop rule after each merge."""
+        while len(runs) > 1 and (ratio == 0 or len(runs[-2]) <= ratio * len(runs[-1])):
             top = runs.pop()
             runs[-1] = kernels.merge(runs[-1], top)
-        return runs[0] if runs else np.empty(0, dtype=np.int64)
+            self.check(extra + sum(r.nbytes for r in runs))
+        self.check(extra + sum(r.nbytes for r in runs))
 
     def value_layer(self, t: int, nxt_worth: np.ndarray) -> np.ndarray:
         """Slot t's optimal actions (kept) and its states' worths (reward + value; the value

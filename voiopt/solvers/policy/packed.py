@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from voiopt.core.steps import Steps
+from voiopt.runtime.stop import Stop, halt_if_asked
 
 KEY_BITS = 63  # a key stays a non-negative int64
 MAX_CELLS = 1 << 20  # entries of the moves' tables (slot, point, moves used) or the VoI table, at most
@@ -93,9 +94,10 @@ class Packing:
 
     # -- the rules as arrays -----------------------------------------------------------------------
 
-    def tables(self) -> dict[str, np.ndarray]:
+    def tables(self, stop: Stop | None = None) -> dict[str, np.ndarray]:
         """The kernels' arrays: legal moves and uploads of every reachable (slot, point, moves
-        used), each upload's success probability and key bits, and the reward table."""
+        used), each upload's success probability and key bits, and the reward table. ``stop``
+        is looked at every slot (voiopt.runtime.stop.Stopped)."""
         steps, lat, N, T = self.steps, self.steps.lat, self.N, self.T
         n, K = lat.n_points, self.max_k + 1
         mv_n = np.zeros((T, n, K), dtype=np.int8)
@@ -106,6 +108,7 @@ class Packing:
         up_ps = np.zeros((T, n, N + 1))
         dist0 = lat.from_start
         for t in range(T):
+            halt_if_asked(stop)
             for p in np.flatnonzero(dist0 <= t):
                 ups = steps.uploads(t, int(p))
                 up_n[t, p] = len(ups)
