@@ -51,6 +51,8 @@ RESULTS = {
     "milp_vs_dp": ["milp_vs_dp.py"],
     "lossy_expectation": ["lossy_expectation.py"],
     "voilib_lossy": ["voilib_lossy.py", "--certify"],
+    "policy_frontier": ["policy_frontier.py", "--time-limit", "60"],
+    "policy_frontier_paper_scale": ["policy_frontier.py", "--paper-scale"],
     "viewer_open": ["viewer_open.py"],
 }
 
