@@ -35,7 +35,7 @@ def test_policy_dp_equals_exhaustive_expectimax(seed, n, T, links, extra, object
     assert r.status == "optimal" and r.evaluation == "exact" and r.bound_kind == "exact"
     assert r.value == pytest.approx(want, rel=1e-9)
     assert r.bound == pytest.approx(want, rel=1e-9)
-    assert r.policy.kind == "table"
+    assert r.policy.kind == "table" and r.solver["search"] == "layered"
     lossless_bound = r.solver["lossless"]["bound"]
     assert (r.value <= lossless_bound * (1 + 1e-9)) if objective == "mean-min-voi" else (r.value >= lossless_bound * (1 - 1e-9))
 

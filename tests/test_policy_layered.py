@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from oracles.expectimax import tiny
 
+import voiopt
 from voiopt.core.instance import from_dict
 from voiopt.runtime.stop import Stop, Stopped
 from voiopt.solvers.policy import layered, packed
@@ -112,6 +113,7 @@ def test_states_that_do_not_pack_go_to_the_plain_expectimax(monkeypatch):
     search = exact_search(inst, "mean-min-voi")
     assert isinstance(search, Expectimax)
     assert search.solve() == fast.solve()
+    assert voiopt.solve(inst, "policy-dp", "mean-min-voi").solver["search"].startswith("plain")
     with pytest.raises(ValueError, match="bits, more than a key's 5"):
         Layered(inst, "mean-min-voi").solve()
 

@@ -169,7 +169,7 @@ def warm_up() -> float:
         for budget in ({}, {"max_moves": 1}):
             inst = from_dict(tiny | {"links": {"model": "bernoulli", "success": 0.5}} | budget)
             for objective in AVERAGED:
-                search = Layered(inst, objective)
+                search = exact_search(inst, objective)
                 search.solve()
                 search.on_policy()
 

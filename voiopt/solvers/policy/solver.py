@@ -80,6 +80,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
             value = None
         bar.update(task, completed=search.states)
     solver["states"] = search.states
+    solver["search"] = "layered" if isinstance(search, layered.Layered) else "plain (the states do not pack into a key)"
     if value is None:
         solver["stopped"] = (f"time limit of {time_limit:g} s reached" if stop.reason == Status.TIME_LIMIT
                              and time_limit is not None else stop.describe())
