@@ -50,9 +50,9 @@ class Packing:
             widths.append((len(self.distances[i]) - 1).bit_length() if self.voi else 0)
         shifts = np.concatenate([[0], np.cumsum(widths)[:-1]]).astype(np.int64)
         self.bits = int(sum(widths))
-        self.cells = max(T * lat.n_points * (self.max_k + 1),  # of the moves' tables, and of the VoI table
-                         N * (max(self.initial_age, default=0) + T + 1) * max(map(len, self.distances), default=1))
-        self.fits = self.bits <= KEY_BITS and self.cells <= MAX_CELLS
+        voi_cells = N * (max(self.initial_age) + T + 1) * max(map(len, self.distances)) if self.voi else 0
+        self.cells = max(T * lat.n_points * (self.max_k + 1), voi_cells)  # of the moves' tables, of the VoI table
+        self.fits = self.bits <= KEY_BITS and self.cells <= MAX_CELLS and 5 * N + 4 <= 255  # an action is a uint8
         self.k_shift = int(shifts[1])
         self.low_bits = int(shifts[2])  # the position fields: point and moves used
         self.p_mask = (1 << widths[0]) - 1
@@ -65,6 +65,8 @@ class Packing:
         """Why the states do not pack (where ``fits`` is False)."""
         if self.bits > KEY_BITS:
             return f"a state needs {self.bits} bits, more than a key's {KEY_BITS}"
+        if 5 * self.N + 4 > 255:
+            return f"{self.N} sensors' actions do not fit a byte"
         return f"its rules' tables need {self.cells:,} cells, more than {MAX_CELLS:,}"
 
     # -- keys -------------------------------------------------------------------------------------
