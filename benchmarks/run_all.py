@@ -53,6 +53,8 @@ RESULTS = {
     "voilib_lossy": ["voilib_lossy.py", "--certify"],
     "value_of_adaptivity": ["value_of_adaptivity.py"],
     "qlearning_lossy": ["qlearning_lossy.py"],
+    "policy_frontier": ["policy_frontier.py", "--time-limit", "60"],
+    "policy_frontier_paper_scale": ["policy_frontier.py", "--paper-scale"],
     "viewer_open": ["viewer_open.py"],
 }
 

@@ -35,7 +35,7 @@ def test_policy_dp_equals_exhaustive_expectimax(seed, n, T, links, extra, object
     assert r.status == "optimal" and r.evaluation == "exact" and r.bound_kind == "exact"
     assert r.value == pytest.approx(want, rel=1e-9)
     assert r.bound == pytest.approx(want, rel=1e-9)
-    assert r.policy.kind == "table"
+    assert r.policy.kind == "table" and r.solver["search"] == "layered"
     lossless_bound = r.solver["lossless"]["bound"]
     assert (r.value <= lossless_bound * (1 + 1e-9)) if objective == "mean-min-voi" else (r.value >= lossless_bound * (1 - 1e-9))
 
@@ -103,7 +103,7 @@ def test_cli_saves_the_policy_beside_the_result(tmp_path, capsys):
 
 
 def test_stopped_by_the_memory_limit_returns_the_open_loop_plan_and_the_lossless_bound():
-    d = voiopt.load("instances/case-study.json").to_dict() | {"links": {"model": "bernoulli", "success": 0.7}}
+    d = voiopt.load("instances/case-study.json").to_dict() | {"horizon": 12, "links": {"model": "bernoulli", "success": 0.7}}
     inst = from_dict(d)
     r = voiopt.solve(inst, "policy-dp", "mean-min-voi", memory_limit=1e-3)
     assert r.status == "memory_limit" and r.bound_kind == "lossless" and r.evaluation == "exact"

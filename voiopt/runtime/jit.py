@@ -40,6 +40,7 @@ KERNEL_MODULES = (  # every module of the package that defines kernels (tests/te
     "solvers/qlearning/kernels.py",
     "solvers/qlearning/table.py",
     "solvers/qlearning/rng.py",
+    "solvers/policy/kernels.py",
 )
 _digests: dict[tuple, str] = {}
 

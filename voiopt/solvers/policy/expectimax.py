@@ -11,6 +11,10 @@ go to the first action in the order: no upload, sensors 0..N-1; moves stay, N, S
 
 With a 0/1 success table (a scenario's availability) the programme is deterministic: the
 lossless problem of that scenario, and its value that problem's exact optimum.
+
+This is the plain programme: the reference that the layered, compiled one (``layered.py``,
+which policy-dp and the information relaxation run) equals bit for bit, and the fallback where
+a state does not pack into one key.
 """
 
 from __future__ import annotations

@@ -7,11 +7,11 @@ above J*(w), so E[J*(w)] bounds the optimal policy. Over K scenarios the bound i
 one-sided 95 % upper confidence limit of the mean of J*(w) (lower when minimising), capped by
 the lossless bound: statistical, never proven.
 
-J*(w) is solved exactly by the expectimax of ``expectimax.py`` with the scenario's 0/1
+J*(w) is solved exactly by the layered expectimax of ``layered.py`` with the scenario's 0/1
 availability as its success table, which makes it a deterministic programme over the states
 (slot, position, moves used, A, q) reachable from the start. That programme has no dominance
 pruning (dp's label setting has, but takes no per-slot availability), so this bound is for the
-small instances the expectimax reaches (docs/policy.md gives where that ends).
+instances the expectimax reaches (docs/policy.md gives where that ends), K times over.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from voiopt.core.scenarios import CONFIDENCE, sample_scenarios
 from voiopt.errors import OptionError
 from voiopt.grid import lattice as lattice_mod
 from voiopt.runtime.stop import Stop, Stopped
-from voiopt.solvers.policy.expectimax import Expectimax
+from voiopt.solvers.policy.layered import exact_search, warm_up
 
 DEFAULT_SAMPLES = 100
 
@@ -42,7 +42,7 @@ def availability(instance: Instance, u: np.ndarray, table: np.ndarray | None = N
 def scenario_optimum(instance: Instance, objective: str, u: np.ndarray, stop: Stop | None = None,
                      table: np.ndarray | None = None) -> float:
     """J*(w): the exact optimum of the lossless problem that knows scenario ``u``."""
-    return Expectimax(instance, objective, availability(instance, u, table), stop).solve()
+    return exact_search(instance, objective, availability(instance, u, table), stop).solve()
 
 
 def information_relaxation(instance: Instance, objective: str, *, samples: int = DEFAULT_SAMPLES, seed: int = 0,
@@ -58,6 +58,7 @@ def information_relaxation(instance: Instance, objective: str, *, samples: int =
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 2:
         raise OptionError(f"--ir-samples: must be an integer >= 2, got {samples!r}")
     scenarios = sample_scenarios(instance, samples, seed) if scenarios is None else scenarios
+    warm_up()
     table = success_table(instance, lattice_mod.build(instance))
     values = []
     for u in scenarios:

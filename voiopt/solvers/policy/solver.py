@@ -1,5 +1,6 @@
 """``--method policy-dp``: the exact optimal policy of one robot under lossy links (MODEL.md
-section 11) for the two averaged objectives, by the expectimax of ``expectimax.py``.
+section 11) for the two averaged objectives, by the layered expectimax of ``layered.py`` (the
+plain one of ``expectimax.py`` where the states do not pack into a key).
 
 The lossless optimum (dp on the instance without its links) comes first: it bounds every
 policy (a failed upload acts as an unscheduled slot), and its plan, as an open-loop policy, is
@@ -29,7 +30,8 @@ from voiopt.runtime.status import Status
 from voiopt.runtime.stop import Stopped, watch
 from voiopt.solvers import options
 from voiopt.solvers.base import DEFAULT_MEMORY_GB, check_limits
-from voiopt.solvers.policy.expectimax import AVERAGED, Expectimax
+from voiopt.solvers.policy import layered
+from voiopt.solvers.policy.expectimax import AVERAGED
 from voiopt.solvers.policy.report import policy_result
 
 LOSSLESS_SHARE = 0.25  # of a time limit, the most the lossless dp may take
@@ -60,6 +62,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     optimum plan as an open-loop policy, its exact value and the lossless bound."""
     check_averaged(objective, "policy-dp")
     check_limits(time_limit, memory_limit)
+    layered.warm_up()
     t0 = time.perf_counter()
     share = None if time_limit is None else time_limit * LOSSLESS_SHARE
     base = lossless_optimum(instance, objective, share, memory_limit)
@@ -69,7 +72,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
     solver = {"lossless": {"status": base.status, "value": base.value, "bound": base.bound}}
     with watch(left, memory_limit) as stop, progress_bar(progress) as bar:
         task = bar.add_task("policy-dp: states", total=None)
-        search = Expectimax(instance, objective, stop=stop, tick=lambda n: bar.update(task, completed=n))
+        search = layered.exact_search(instance, objective, stop=stop, tick=lambda n: bar.update(task, completed=n))
         try:
             value = search.solve()
             rows = search.on_policy()
@@ -77,6 +80,7 @@ def solve(instance: Instance, objective: str, *, progress: bool = False, time_li
             value = None
         bar.update(task, completed=search.states)
     solver["states"] = search.states
+    solver["search"] = "layered" if isinstance(search, layered.Layered) else "plain (the states do not pack into a key)"
     if value is None:
         solver["stopped"] = (f"time limit of {time_limit:g} s reached" if stop.reason == Status.TIME_LIMIT
                              and time_limit is not None else stop.describe())
