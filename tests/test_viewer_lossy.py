@@ -1,0 +1,122 @@
+"""voiopt show and plot --animate under lossy links (MODEL.md section 11): a result is checked
+against the instance it is shown on (a plan's exact expectation; a policy's instance, links
+included, and its exact value)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from conftest import run_cli
+from test_viewer import embedded, one_line_error
+
+import voiopt
+from voiopt.core.expectation import expected_metrics
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE = ROOT / "instances" / "case-study.json"
+BERNOULLI = {"model": "bernoulli", "success": 0.6}
+RAYLEIGH = {"model": "rayleigh", "snr_threshold_db": 20.0}
+
+
+def _network(folder: Path, links: dict | None, file: str = "case-study.json", horizon: int = 6) -> Path:
+    """The case study (same name whatever its links, as ``generate --links`` names networks)."""
+    d = voiopt.load(CASE).to_dict() | {"horizon": horizon}
+    if links is not None:
+        d["links"] = links
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / file).write_text(json.dumps(d))
+    return folder / file
+
+
+def _differ(a: float, b: float) -> bool:
+    return abs(a - b) > 1e-6 * max(abs(a), abs(b))
+
+
+def test_a_plan_result_is_checked_against_its_exact_expectation_on_the_given_instance(capsys, tmp_path):
+    """The reviewer's repro: one network, two links; a plan solved on the Bernoulli one and shown
+    with the Rayleigh one was drawn with the Bernoulli value labelled "exact expectation"."""
+    b = _network(tmp_path / "b", BERNOULLI)
+    ray = _network(tmp_path / "r", RAYLEIGH)
+    lossless = _network(tmp_path / "l", None)
+    result = voiopt.solve(voiopt.load(b), method="greedy")
+    result.save(tmp_path / "b-greedy.json")
+    plan = result.plan
+    assert _differ(expected_metrics(voiopt.load(ray), plan)[result.objective], result.value)  # the repro is real
+    for other in (ray, lossless):
+        code, _, err = run_cli(capsys, "show", tmp_path / "b-greedy.json", "--instance", other, "-o", tmp_path / "x.html")
+        line = one_line_error(err)
+        assert code == 2 and "b-greedy.json: its plan on" in line and "does not give what the result says" in line
+    assert "exact expectation" in line or "simulated" in line
+    assert not (tmp_path / "x.html").exists()
+    assert run_cli(capsys, "show", tmp_path / "b-greedy.json", "--instance", b, "-o", tmp_path / "ok.html")[0] == 0
+    (r,) = embedded((tmp_path / "ok.html").read_text())["results"]
+    assert (r["value"], r["evaluation"]) == (result.value, "exact")
+    # and a lossless result is not passed off on the lossy network of its name
+    voiopt.solve(voiopt.load(lossless), method="greedy").save(tmp_path / "l-greedy.json")
+    code, _, err = run_cli(capsys, "show", tmp_path / "l-greedy.json", "--instance", b, "-o", tmp_path / "y.html")
+    assert code == 2 and "exact expectation" in one_line_error(err)
+
+
+def test_a_plan_file_on_a_lossy_instance_is_shown_with_its_exact_expectation(capsys, tmp_path):
+    b = _network(tmp_path, BERNOULLI)
+    plan = voiopt.solve(voiopt.load(b), method="greedy").plan
+    (tmp_path / "p.json").write_text(json.dumps(plan.to_dict()))
+    assert run_cli(capsys, "show", tmp_path / "p.json", "--instance", b, "-o", tmp_path / "p.html")[0] == 0
+    (r,) = embedded((tmp_path / "p.html").read_text())["results"]
+    assert r["value"] == expected_metrics(voiopt.load(b), plan)["mean-min-voi"] and r["evaluation"] == "exact"
+    assert r["run"]["seed"] == 0
+
+
+@pytest.fixture(scope="module")
+def policy_result(tmp_path_factory):
+    """policy-dp on the lossy case study (T = 6): an exact value, its policy saved beside it."""
+    from voiopt.cli.main import main
+
+    folder = tmp_path_factory.mktemp("policy")
+    b = _network(folder, BERNOULLI)
+    assert main(["solve", str(b), "--method", "policy-dp", "-o", str(folder / "pol.json"), "--quiet"]) == 0
+    return folder
+
+
+def test_a_policy_result_is_refused_on_an_instance_with_other_links(capsys, tmp_path, policy_result):
+    ray = _network(tmp_path, RAYLEIGH)
+    code, _, err = run_cli(capsys, "show", policy_result / "pol.json", "--instance", ray, "-o", tmp_path / "x.html")
+    line = one_line_error(err)
+    assert code == 2 and "pol.json: its policy was made for links" in line and "rayleigh" in line
+    other = _network(tmp_path / "h", BERNOULLI, horizon=5)  # the same links, another horizon
+    code, _, err = run_cli(capsys, "show", policy_result / "pol.json", "--instance", other, "-o", tmp_path / "x.html")
+    assert code == 2 and "made for another instance" in one_line_error(err) and "horizon" in err
+    assert not (tmp_path / "x.html").exists()
+
+
+def test_a_policy_results_exact_value_is_computed_again(capsys, tmp_path, policy_result):
+    d = json.loads((policy_result / "pol.json").read_text())
+    assert d["evaluation"] == "exact" and d["solver"]["policy_file"] == "pol.policy.json"
+    d["value"] *= 1.01
+    d["metrics"][d["objective"]] = d["value"]
+    (policy_result / "edited.json").write_text(json.dumps(d))
+    code, _, err = run_cli(capsys, "show", policy_result / "edited.json", "-o", tmp_path / "x.html")
+    assert code == 2 and "its policy on" in one_line_error(err) and "exact)" in err
+    assert run_cli(capsys, "show", policy_result / "pol.json", "-o", tmp_path / "ok.html")[0] == 0
+    (r,) = embedded((tmp_path / "ok.html").read_text())["results"]
+    assert r["gapKind"] == "proven"
+
+
+def _gif_frames(path: Path):
+    import numpy as np
+    from PIL import Image
+
+    with Image.open(path) as gif:
+        out = []
+        for t in range(gif.n_frames):
+            gif.seek(t)
+            out.append(np.asarray(gif.convert("RGB")))
+    return out
+
+
+def test_animate_of_a_policy_result_is_one_line(capsys, tmp_path, policy_result):
+    code, _, err = run_cli(capsys, "plot", policy_result / "pol.json", "--animate", "-o", tmp_path / "a.gif")
+    assert code == 2 and "voiopt show draws a sampled run" in one_line_error(err)
+    assert not (tmp_path / "a.gif").exists()
