@@ -1,6 +1,6 @@
 """voiopt show and plot --animate under lossy links (MODEL.md section 11): a result is checked
 against the instance it is shown on (a plan's exact expectation; a policy's instance, links
-included, and its exact value)."""
+included, and its exact value), and a gap says whether it is proven, an estimate or statistical."""
 
 from __future__ import annotations
 
@@ -13,6 +13,8 @@ from test_viewer import embedded, one_line_error
 
 import voiopt
 from voiopt.core.expectation import expected_metrics
+from voiopt.experiments.lossy_gaps import gap_range
+from voiopt.objectives import show_gap
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE = ROOT / "instances" / "case-study.json"
@@ -102,6 +104,26 @@ def test_a_policy_results_exact_value_is_computed_again(capsys, tmp_path, policy
     assert run_cli(capsys, "show", policy_result / "pol.json", "-o", tmp_path / "ok.html")[0] == 0
     (r,) = embedded((tmp_path / "ok.html").read_text())["results"]
     assert r["gapKind"] == "proven"
+
+
+def test_a_monte_carlo_value_has_an_estimated_gap_never_a_proven_one(capsys, tmp_path, policy_result):
+    """gap-report's words: to a proven bound, an exact value's gap is proven, a Monte Carlo
+    value's an estimate (with the range its CI implies); to an information-relaxation bound,
+    statistical (the reviewer saw "gap 80.2 % proven" for a Q-learning estimate)."""
+    d = json.loads((policy_result / "pol.json").read_text())
+    v = d["value"]
+    mc = d | {"evaluation": "monte-carlo", "samples": 500, "value_ci": [0.9 * v, 1.02 * v], "bound": 1.3 * v,
+              "bound_kind": "lossless", "gap": 0.3 / 1.3, "status": "feasible"}
+    ir = mc | {"bound_kind": "information-relaxation", "bound_samples": 100, "bound_confidence": 0.95}
+    (policy_result / "mc.json").write_text(json.dumps(mc))
+    (policy_result / "ir.json").write_text(json.dumps(ir))
+    code, _, err = run_cli(capsys, "show", policy_result / "mc.json", policy_result / "ir.json",
+                           "-o", tmp_path / "p.html")
+    assert code == 0, err
+    r_mc, r_ir = embedded((tmp_path / "p.html").read_text())["results"]
+    assert (r_mc["gapKind"], r_ir["gapKind"]) == ("estimate", "statistical")
+    low, high = gap_range(d["objective"], (0.9 * v, 1.02 * v), 1.3 * v)
+    assert r_mc["gapRange"] == [show_gap(low), show_gap(high)] and low < mc["gap"] < high
 
 
 def _gif_frames(path: Path):

@@ -69,7 +69,9 @@
     (results.length > 1 ? ` \u2014 ${results.length} plans on one timeline` : "");
   document.getElementById("note").textContent =
     "Slot t shows p_k(t), A_i(t) and V_i(t) before slot t's upload takes effect (MODEL.md sections 3, 4, 10). " +
-    "Every value is voiopt's simulation of the plan. Gaps: proven = a proven bound; statistical = a bound estimated from samples.";
+    "Every value is voiopt's simulation of the plan. Gaps: proven = an exact value and a proven bound; estimate = a Monte " +
+    "Carlo value's gap (with the range its CI implies); statistical = to a bound estimated from samples (information " +
+    "relaxation), never proven.";
 
   const cards = results.map((r, j) => buildCard(r, j));
   buildScale(document.getElementById("scale"));
@@ -93,7 +95,7 @@
     }
     if (r.status) {
       fact("bound", r.bound === null ? "none" : fmt(r.bound, 6) + (r.boundKind ? ` (${r.boundKind})` : ""));
-      const g = fact("gap", r.gap === null ? "none" : r.gapText);
+      const g = fact("gap", r.gap === null ? "none" : r.gapText + (r.gapRange ? ` [${r.gapRange[0]}, ${r.gapRange[1]}]` : ""));
       if (r.gap !== null) { g.append(" "); html("span", "badge " + r.gapKind, g, r.gapKind); }
     }
     if (r.run) {

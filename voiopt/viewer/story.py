@@ -48,8 +48,23 @@ class Entry:
 
     @property
     def gap_kind(self) -> str:
-        """"statistical" for a bound estimated from samples, else "proven" (MODEL.md 6, 11)."""
-        return "proven" if self.bound_kind is None or self.bound_kind.proven else "statistical"
+        """How far a gap is to be trusted, in gap-report's words (MODEL.md 6, 11): "statistical"
+        to a bound estimated from samples (information relaxation); else "estimate" for a Monte
+        Carlo value (its gap to a proven bound is an estimate too); else "proven" (an exact value
+        and an exact or lossless bound, or a lossless result's)."""
+        if self.bound_kind is not None and not self.bound_kind.proven:
+            return "statistical"
+        return "estimate" if self.evaluation == Evaluation.MONTE_CARLO else "proven"
+
+    @property
+    def gap_range(self) -> tuple[float, float] | None:
+        """A Monte Carlo value's gap anywhere in its CI (lowest, highest; signed, as gap-report's), or None."""
+        if self.evaluation != Evaluation.MONTE_CARLO or self.value_ci is None or self.bound is None:
+            return None
+        from voiopt.experiments.lossy_gaps import gap_range
+
+        low, high = gap_range(self.objective, self.value_ci, self.bound)
+        return None if low is None else (low, high)
 
 
 def read_entry(path: str | os.PathLike) -> tuple[Entry, str | None]:
@@ -229,6 +244,7 @@ def story(instance: Instance, entries: list[Entry], where: str = "the instance",
             "label": e.label, "method": e.method, "objective": e.objective, "status": e.status,
             "value": _number(e.value), "bound": _number(e.bound), "gap": _number(e.gap),
             "gapText": show_gap(e.gap), "gapKind": e.gap_kind,
+            "gapRange": None if e.gap_range is None else [show_gap(g) for g in e.gap_range],
             "boundKind": e.bound_kind, "evaluation": e.evaluation,
             "samples": e.samples, "valueCi": None if e.value_ci is None else [_number(v) for v in e.value_ci],
             "simulated": {k: _number(v) for k, v in traj.metrics.items()},
