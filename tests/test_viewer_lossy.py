@@ -54,7 +54,7 @@ def test_a_plan_result_is_checked_against_its_exact_expectation_on_the_given_ins
     assert not (tmp_path / "x.html").exists()
     assert run_cli(capsys, "show", tmp_path / "b-greedy.json", "--instance", b, "-o", tmp_path / "ok.html")[0] == 0
     (r,) = embedded((tmp_path / "ok.html").read_text())["results"]
-    assert (r["value"], r["evaluation"]) == (result.value, "exact")
+    assert (r["value"], r["evaluation"], r["kind"]) == (result.value, "exact", "plan")
     # and a lossless result is not passed off on the lossy network of its name
     voiopt.solve(voiopt.load(lossless), method="greedy").save(tmp_path / "l-greedy.json")
     code, _, err = run_cli(capsys, "show", tmp_path / "l-greedy.json", "--instance", b, "-o", tmp_path / "y.html")
@@ -103,7 +103,7 @@ def test_a_policy_results_exact_value_is_computed_again(capsys, tmp_path, policy
     assert code == 2 and "its policy on" in one_line_error(err) and "exact)" in err
     assert run_cli(capsys, "show", policy_result / "pol.json", "-o", tmp_path / "ok.html")[0] == 0
     (r,) = embedded((tmp_path / "ok.html").read_text())["results"]
-    assert r["gapKind"] == "proven"
+    assert r["kind"] == "policy" and r["gapKind"] == "proven"
 
 
 def test_a_monte_carlo_value_has_an_estimated_gap_never_a_proven_one(capsys, tmp_path, policy_result):
@@ -142,3 +142,24 @@ def test_animate_of_a_policy_result_is_one_line(capsys, tmp_path, policy_result)
     code, _, err = run_cli(capsys, "plot", policy_result / "pol.json", "--animate", "-o", tmp_path / "a.gif")
     assert code == 2 and "voiopt show draws a sampled run" in one_line_error(err)
     assert not (tmp_path / "a.gif").exists()
+
+
+def test_a_lossy_page_is_the_same_for_the_same_seed(capsys, tmp_path, policy_result):
+    """The sampled run is scenario 0 of the seed: the same seed writes the same bytes (in
+    another process too: nothing hangs on hash order or the clock); another seed another run."""
+    import subprocess
+    import sys
+
+    argv = ["show", policy_result / "pol.json", "--seed", "3", "-o"]
+    assert run_cli(capsys, *argv, tmp_path / "a.html")[0] == 0
+    env = {"PYTHONPATH": str(ROOT), "PYTHONHASHSEED": "12345", "PATH": "/usr/bin:/bin"}
+    subprocess.run([sys.executable, "-m", "voiopt", *map(str, argv), str(tmp_path / "b.html")], check=True, env=env,
+                   capture_output=True)
+    assert (tmp_path / "a.html").read_bytes() == (tmp_path / "b.html").read_bytes()
+    runs = set()
+    for seed in range(6):
+        assert run_cli(capsys, "show", policy_result / "pol.json", "--seed", seed, "-o", tmp_path / "c.html")[0] == 0
+        (r,) = embedded((tmp_path / "c.html").read_text())["results"]
+        assert r["run"]["seed"] == seed
+        runs.add(json.dumps(r["run"]["failed"]))
+    assert len(runs) > 1

@@ -241,7 +241,7 @@ def story(instance: Instance, entries: list[Entry], where: str = "the instance",
                 if e.value is None:  # a plan file: its exact expected objective, which no run shows
                     e = replace(e, value=expected_metrics(instance, e.plan)[e.objective], evaluation=Evaluation.EXACT)
         out.append({
-            "label": e.label, "method": e.method, "objective": e.objective, "status": e.status,
+            "label": e.label, "kind": "plan" if e.policy is None else "policy", "method": e.method, "objective": e.objective, "status": e.status,
             "value": _number(e.value), "bound": _number(e.bound), "gap": _number(e.gap),
             "gapText": show_gap(e.gap), "gapKind": e.gap_kind,
             "gapRange": None if e.gap_range is None else [show_gap(g) for g in e.gap_range],
