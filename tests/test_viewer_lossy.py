@@ -1,6 +1,7 @@
 """voiopt show and plot --animate under lossy links (MODEL.md section 11): a result is checked
 against the instance it is shown on (a plan's exact expectation; a policy's instance, links
-included, and its exact value), and a gap says whether it is proven, an estimate or statistical."""
+included, and its exact value), a gap says whether it is proven, an estimate or statistical,
+and the animation and the plot say what they draw."""
 
 from __future__ import annotations
 
@@ -163,3 +164,52 @@ def test_a_lossy_page_is_the_same_for_the_same_seed(capsys, tmp_path, policy_res
         assert r["run"]["seed"] == seed
         runs.add(json.dumps(r["run"]["failed"]))
     assert len(runs) > 1
+
+
+def test_animate_and_plot_say_that_every_upload_succeeds_on_a_lossy_instance(capsys, tmp_path, monkeypatch):
+    """The frames of a plan on lossy links are the run in which every upload succeeds: the
+    frame says so (a caption), which a lossless instance's frame does not carry."""
+    from voiopt.viewer.frames import Painter, slots_of
+    from voiopt.viewer.story import lossy_caption
+
+    b, lossless = voiopt.load(_network(tmp_path / "b", BERNOULLI)), voiopt.load(_network(tmp_path / "l", None))
+    assert "every upload succeeds" in lossy_caption(b) and "voiopt show draws a sampled run" in lossy_caption(b)
+    assert lossy_caption(lossless) == ""
+    plan = voiopt.solve(b, method="greedy").plan
+    painter = Painter(b, "greedy", caption=lossy_caption(b))
+    painter.draw(next(slots_of(voiopt.simulate(b, plan), b)))
+    texts = [t.get_text() for t in painter.figure.texts]
+    assert any("every upload succeeds" in t for t in texts)
+    assert not Painter(lossless, "greedy", caption=lossy_caption(lossless)).figure.texts
+    # the command passes it on: a GIF of the lossy network is captioned, the lossless one's not
+    import voiopt.viewer.animate as animate_mod
+
+    seen = []
+
+    class Recording(Painter):
+        def __init__(self, instance, title="", log_range=None, caption=""):
+            seen.append(caption)
+            super().__init__(instance, title, log_range, caption)
+
+    monkeypatch.setattr(animate_mod, "Painter", Recording)
+    for inst, name in ((b, "b"), (lossless, "l")):
+        (tmp_path / f"{name}-p.json").write_text(json.dumps(plan.to_dict()))
+        code, _, err = run_cli(capsys, "plot", tmp_path / f"{name}-p.json", "--instance", tmp_path / name / "case-study.json",
+                               "--animate", "-o", tmp_path / f"{name}.gif")
+        assert code == 0, err
+        assert len(_gif_frames(tmp_path / f"{name}.gif")) == inst.horizon
+    assert seen == [lossy_caption(b), ""]
+
+
+def test_the_static_plot_of_a_lossy_plan_says_its_uploads_may_fail(tmp_path, monkeypatch):
+    import voiopt.experiments.plots as plots
+
+    titles = []
+    monkeypatch.setattr(plots, "save_figure", lambda fig, path: titles.append(fig.axes[0].get_title()))
+    for links, name in ((BERNOULLI, "b"), (None, "l")):
+        inst = voiopt.load(_network(tmp_path / name, links))
+        result = voiopt.solve(inst, method="greedy")
+        plots.plot_result(result, inst, tmp_path / "x.png")
+        plots.plot_plan(inst, result.plan, tmp_path / "x.png", "p.json")
+    assert all("each may fail" in t and "voiopt show draws a sampled run" in t for t in titles[:2])
+    assert not any("may fail" in t for t in titles[2:])

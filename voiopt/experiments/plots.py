@@ -183,7 +183,7 @@ def plot_result(result: Result, instance: Instance, path: str | os.PathLike, whe
         raise OptionError(f"RESULT: its plan on {where} does not give what the result says ({differ}): give the "
                           "instance it was solved on with --instance (or the file was edited)")
     fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
-    title = f"{instance.name} — {result.method}, {_expected(instance)}{result.objective} = {metrics[result.objective]:.4g} ({result.status})"
+    title = f"{instance.name} — {result.method}, {_expected(instance)}{result.objective} = {metrics[result.objective]:.4g} ({result.status}){_may_fail(instance)}"
     draw_plan(ax, instance, result.plan, title)
     save_figure(fig, path)
 
@@ -193,13 +193,18 @@ def _expected(instance: Instance) -> str:
     return "expected " if is_lossy(instance) else ""
 
 
+def _may_fail(instance: Instance) -> str:
+    """A title's second line on a lossy instance: the uploads drawn are the plan's, as scheduled."""
+    return "\nuploads as scheduled, each may fail; voiopt show draws a sampled run" if is_lossy(instance) else ""
+
+
 def plot_plan(instance: Instance, plan: Plan | FleetPlan, path: str | os.PathLike, label: str,
               objective: str = OBJECTIVE) -> None:
     """``voiopt plot`` of a plan file (no result around it): its trajectory, with its simulated
     ``objective`` in the title."""
     value = expected_metrics(instance, plan)[objective]
     fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
-    draw_plan(ax, instance, plan, f"{instance.name} — {label}, {_expected(instance)}{objective} = {value:.4g}")
+    draw_plan(ax, instance, plan, f"{instance.name} — {label}, {_expected(instance)}{objective} = {value:.4g}{_may_fail(instance)}")
     save_figure(fig, path)
 
 

@@ -136,6 +136,14 @@ def trajectory(instance: Instance, entry: Entry, where: str = "the instance") ->
     return traj
 
 
+def lossy_caption(instance: Instance) -> str:
+    """What an animation of a plan on a lossy instance says under its frames: they are the run in
+    which every upload succeeds, not a sampled one ("" on an instance that is not lossy)."""
+    if not is_lossy(instance):
+        return ""
+    return "lossy links: drawn as if every upload succeeds; voiopt show draws a sampled run"
+
+
 REFUSED = "give the instance it was solved on with --instance (or the file was edited)"
 
 
