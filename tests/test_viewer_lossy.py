@@ -139,10 +139,12 @@ def _gif_frames(path: Path):
     return out
 
 
-def test_animate_of_a_policy_result_is_one_line(capsys, tmp_path, policy_result):
-    code, _, err = run_cli(capsys, "plot", policy_result / "pol.json", "--animate", "-o", tmp_path / "a.gif")
-    assert code == 2 and "voiopt show draws a sampled run" in one_line_error(err)
-    assert not (tmp_path / "a.gif").exists()
+def test_plot_of_a_policy_result_is_one_line(capsys, tmp_path, policy_result):
+    for name in ("a.gif", "a.png"):
+        argv = ["plot", policy_result / "pol.json", "-o", tmp_path / name] + (["--animate"] if name.endswith(".gif") else [])
+        code, _, err = run_cli(capsys, *argv)
+        assert code == 2 and "voiopt show draws a sampled run" in one_line_error(err), name
+        assert not (tmp_path / name).exists()
 
 
 def test_a_lossy_page_is_the_same_for_the_same_seed(capsys, tmp_path, policy_result):
