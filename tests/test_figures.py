@@ -158,3 +158,66 @@ def test_the_confidence_interval_over_few_networks_uses_students_t():
     assert ci95([1.0, 2.0, 3.0]) == pytest.approx(4.3027 / math.sqrt(3), rel=1e-4)  # sd 1
     assert ci95([2.0, 4.0, 4.0, 4.0, 6.0]) == pytest.approx(2.7764 * math.sqrt(2) / math.sqrt(5), rel=1e-4)
     assert ci95([5.0]) is None
+
+
+def _drawn(inst, plan):
+    """draw_plan's figure as saved (tight layout, drawn): its markers' and labels' boxes in
+    display units, and the sensors' marker path."""
+    import math
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+    from matplotlib.transforms import Bbox
+
+    from voiopt.experiments.plots import draw_plan
+
+    fig, ax = plt.subplots(figsize=(5.2, 5.2))
+    draw_plan(ax, inst, plan, "a title")
+    fig.tight_layout()
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    px = fig.dpi / 72
+    markers, sensor_paths = [], []
+    sensors = {tuple(s.position) for s in inst.sensors}
+    for coll in ax.collections:
+        sizes = coll.get_sizes() if hasattr(coll, "get_sizes") else []
+        if len(sizes) == 0 or max(sizes) <= 4:  # the lattice's dots, the blocked squares' patches
+            continue
+        for (x, y), s in zip(coll.get_offsets(), itertools.cycle(sizes), strict=False):
+            cx, cy = ax.transData.transform((x, y))
+            half = math.sqrt(s) / 2 * px
+            markers.append(Bbox.from_extents(cx - half, cy - half, cx + half, cy + half))
+            if (float(x), float(y)) in sensors:
+                sensor_paths.append(coll.get_paths()[0])
+    labels = [(t.get_text(), t.get_window_extent(renderer)) for t in ax.texts]
+    plt.close(fig)
+    return markers, labels, sensor_paths
+
+
+def test_the_plot_s_labels_cover_no_marker_and_no_label_and_sensors_are_not_crosses():
+    """A review (2026-12-05): sensors were red x, the viewer's mark of a failed upload, and a
+    sensor's name sat on an upload label and a path marker (the dp plan of generate(3, 10,
+    seed=3)). Sensors are now hexagons, and every label goes where it covers nothing."""
+    import numpy as np
+    from matplotlib.markers import MarkerStyle
+
+    from voiopt.core.plan import Plan
+
+    x = MarkerStyle("x")
+    cross = x.get_path().transformed(x.get_transform()).vertices  # as scatter stores a marker
+    net = voiopt.generate(3, 10, seed=3)
+    dp_plan = Plan(((0, 0), (1, 0), (2, 0), (3, 0), (3, 1), (2, 1), (1, 1), (2, 1), (3, 1), (3, 0)),
+                   (None, None, 2, 1, 1, 2, 0, 2, 1, 1))
+    six = voiopt.generate(6, 30, seed=5)
+    case = voiopt.load("instances/case-study.json")
+    for inst, plan in ((net, dp_plan), (six, voiopt.solve(six, "greedy").plan),
+                       (case, voiopt.load_plan("instances/case-study.plan.json"))):
+        markers, labels, sensor_paths = _drawn(inst, plan)
+        assert len(sensor_paths) == inst.n_sensors
+        assert not any(p.vertices.shape == cross.shape and np.allclose(p.vertices, cross) for p in sensor_paths)
+        assert len(labels) >= inst.n_sensors + 1
+        for k, (text, box) in enumerate(labels):
+            assert not any(box.overlaps(m) for m in markers), (inst.name, text)
+            assert not any(box.overlaps(other) for _, other in labels[k + 1:]), (inst.name, text)

@@ -159,3 +159,41 @@ def test_keys_and_buttons_move_the_slot(browser, capsys, tmp_path):
     assert "Space" in browser.find_element(By.CLASS_NAME, "keys").text  # the keys are shown on the page
     error = browser.execute_script("try { window.voiopt.setSlot(10); return null } catch (e) { return e.name }")
     assert error == "RangeError"
+
+
+def test_a_lossy_page_labels_its_values_gaps_and_sampled_run(browser, capsys, tmp_path):
+    """Lossy links, as the page is read: an exact plan value and a Monte Carlo policy value are
+    labelled as such, the Monte Carlo value's gap as an estimate (never proven), the charts as
+    the sampled run's, and a slot whose upload fails in that run says so."""
+    import json
+
+    from selenium.webdriver.common.by import By
+
+    d = voiopt.load(ROOT / "instances" / "case-study.json").to_dict() | {"horizon": 6}
+    d["links"] = {"model": "bernoulli", "success": 0.6}
+    inst_path = tmp_path / "case-study.json"
+    inst_path.write_text(json.dumps(d))
+    assert main(["solve", str(inst_path), "--method", "policy-dp", "-o", str(tmp_path / "pol.json"), "--quiet"]) == 0
+    _solve(inst_path, "greedy", tmp_path / "greedy.json")
+    mc = json.loads((tmp_path / "pol.json").read_text())
+    v = mc["value"]
+    mc.update(evaluation="monte-carlo", samples=500, value_ci=[0.95 * v, 1.05 * v], bound=1.5 * v, gap=1 / 3,
+              bound_kind="lossless", status="feasible")
+    (tmp_path / "mc.json").write_text(json.dumps(mc))
+    page = _show(capsys, tmp_path, inst_path, tmp_path / "greedy.json", tmp_path / "mc.json")
+    browser.get(page.as_uri())
+    plan_card, policy_card = browser.find_elements(By.CLASS_NAME, "card")
+    assert "(exact expectation)" in plan_card.text and "proven" in plan_card.text
+    assert "Monte Carlo estimate" in policy_card.text and "500 samples" in policy_card.text
+    assert [b.text for b in policy_card.find_elements(By.CSS_SELECTOR, ".facts .badge")] == ["estimate"]
+    assert "proven" not in policy_card.find_element(By.CLASS_NAME, "facts").text
+    assert "policy: adapts to outcomes" in policy_card.text
+    assert all("the sampled run (seed 0)" in h.text for h in browser.find_elements(By.CSS_SELECTOR, ".side h3"))
+    runs = browser.execute_script("return JSON.parse(document.getElementById('voiopt-data').textContent)"
+                                  ".results.map(r => r.run.failed[0])")
+    t, k = next((t, k) for k, failed in enumerate(runs) for t, f in enumerate(failed) if f)
+    browser.execute_script(f"window.voiopt.setSlot({t})")
+    card = [plan_card, policy_card][k]
+    assert "fails in this sampled run" in card.find_element(By.CLASS_NAME, "now").text
+    assert "one sampled run (seed 0" in browser.find_element(By.ID, "note").text
+    assert browser.get_log("browser") == [] if hasattr(browser, "get_log") else True

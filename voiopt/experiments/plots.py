@@ -105,21 +105,35 @@ def upload_labels(plan: Plan) -> dict[tuple[float, float], str]:
 
 
 _BOX = {"boxstyle": "round,pad=0.1", "facecolor": "white", "alpha": 0.75, "edgecolor": "none"}  # text over lines stays legible
+SENSOR = "0.2"  # sensors, their names and ranges: red is the uploads' colour (and the viewer's failed upload, a red x)
+SENSOR_MARKER, SENSOR_SIZE = "h", 70  # a filled hexagon: squares are starts, triangles moves, diamonds docks
+PATH_SIZE = 45
+# where a label may go beside its point, in offset points (dx, dy, ha, va), in order of preference:
+# each clears a marker of its point (a path marker's radius is sqrt(PATH_SIZE) / 2, 3.4 points)
+SENSOR_PLACES = ((5, 5, "left", "bottom"), (5, -5, "left", "top"), (-5, 5, "right", "bottom"), (-5, -5, "right", "top"),
+                 (7, 0, "left", "center"), (-7, 0, "right", "center"), (0, 7, "center", "bottom"), (0, -7, "center", "top"))
+SLOT_PLACES = ((0, -6, "center", "top"), (-5, -5, "right", "top"), (5, -5, "left", "top"), (0, 6, "center", "bottom"),
+               (7, 0, "left", "center"), (-7, 0, "right", "center"), (5, 5, "left", "bottom"), (-5, 5, "right", "bottom"))
+SLOT_PLACES += tuple((2 * dx, 2 * dy, ha, va) for dx, dy, ha, va in SLOT_PLACES)  # a crowded plot: one step further out
 
 
 def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -> None:
     """Each robot's path in its own colour with direction markers (red where a sensor
-    uploads, labelled t{slots}:s{sensor} by ``upload_labels``), its start, sensors and their ranges."""
+    uploads, labelled t{slots}:s{sensor} by ``upload_labels``), its start, sensors (dark
+    hexagons) and their ranges. Labels go beside their points where they cover no marker and no
+    other label (``place_labels``)."""
     from matplotlib.patches import Circle
 
     lat = lattice_mod.build(instance)
     ax.scatter(lat.points[~lat.blocked, 0], lat.points[~lat.blocked, 1], s=4, color="0.8", zorder=1)
-    _draw_field_rules(ax, instance, plan)
+    markers = _draw_field_rules(ax, instance, plan)
+    labels = []
     for i, s in enumerate(instance.sensors):
-        ax.add_patch(Circle(s.position, instance.channel.d_th, fill=False, ls=":", color="tab:red", alpha=0.5))
-        ax.scatter(*s.position, marker="x", s=60, color="tab:red", zorder=4)
-        ax.annotate(f"s{i} (rho {s.rho:.2f})", s.position, xytext=(4, 4), textcoords="offset points", fontsize=7,
-                    color="tab:red", bbox=_BOX, zorder=2.6)  # over the paths and upload labels, under the markers
+        ax.add_patch(Circle(s.position, instance.channel.d_th, fill=False, ls=":", color=SENSOR, alpha=0.45))
+        ax.scatter(*s.position, marker=SENSOR_MARKER, s=SENSOR_SIZE, color=SENSOR, edgecolor="white", lw=0.8, zorder=4)
+        markers.append((*s.position, SENSOR_SIZE))
+        labels.append((s.position, f"s{i} (rho {s.rho:.2f})", SENSOR_PLACES,
+                       {"fontsize": 7, "color": SENSOR, "zorder": 2.6}))  # over the paths and upload labels
     fleet = len(plan.robots) > 1
     for k, robot in enumerate(plan.robots):
         colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)]
@@ -130,27 +144,69 @@ def draw_plan(ax, instance: Instance, plan: Plan | FleetPlan, title: str = "") -
         ax.plot(pts[:, 0], pts[:, 1], color=colour, lw=1.2, alpha=0.7, zorder=2, label=f"robot {k}" if fleet else None)
         ax.scatter(*pts[0], marker="s", s=70, facecolor="none", edgecolor="black" if not fleet else colour, zorder=5,
                    label="start" if k == 0 and not fleet else None)
+        markers += [(x, y, PATH_SIZE) for x, y in dict.fromkeys(robot.positions)]
         step = instance.step
         for t, (x, y) in enumerate(robot.positions):
             nxt = robot.positions[t + 1] if t + 1 < len(robot.positions) else (x, y)
             move = (round((nxt[0] - x) / step), round((nxt[1] - y) / step))
             u = robot.schedule[t]
-            ax.scatter(x, y, marker=_ARROW.get(move, "o"), s=45, color="tab:red" if u is not None else colour,
+            ax.scatter(x, y, marker=_ARROW.get(move, "o"), s=PATH_SIZE, color="tab:red" if u is not None else colour,
                        edgecolor=colour if fleet else None, linewidths=1.2 if fleet else None, zorder=3)
-        for point, label in upload_labels(robot).items():
-            ax.annotate(label, point, xytext=(-6, -6), textcoords="offset points", fontsize=6, va="top",
-                        color=colour if fleet else None, bbox=_BOX, zorder=2.5)
+        labels += [(point, label, SLOT_PLACES, {"fontsize": 6, "color": colour if fleet else "black", "zorder": 2.5})
+                   for point, label in upload_labels(robot).items()]
     ax.set_xlim(-0.4, instance.width + 0.4)
     ax.set_ylim(-0.4, instance.height + 0.4)
     ax.set_aspect("equal")
     ax.set_title(title, fontsize=9)
     if fleet or instance.has_field_rules:
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=2, fontsize=7, frameon=False)
+    place_labels(ax, labels, markers)
 
 
-def _draw_field_rules(ax, instance: Instance, plan: Plan | FleetPlan) -> None:
+def place_labels(ax, labels, markers) -> None:
+    """Annotate each of ``labels`` ((point, text, places, text options), in order) at the first
+    of its places (offsets from its point) where its box stays inside the axes and covers none
+    of ``markers`` ((x, y, size in points^2)) and no label placed before it; where every place
+    covers something (or leaves the axes), at the place that covers least (the first of those).
+    Measured on the figure as laid out now (tight_layout first, as save_figure lays it out), in
+    display units."""
+    import math
+
+    from matplotlib.transforms import Bbox
+
+    fig = ax.figure
+    fig.tight_layout()
+    ax.apply_aspect()
+    renderer = fig.canvas.get_renderer()
+    px = fig.dpi / 72  # display units a point
+    frame = ax.get_window_extent(renderer)
+    inside = lambda box: frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 and box.y1 <= frame.y1  # noqa: E731
+    taken = []
+    for x, y, size in markers:
+        (cx, cy), half = ax.transData.transform((x, y)), (math.sqrt(size) / 2 + 0.5) * px
+        taken.append(Bbox.from_extents(cx - half, cy - half, cx + half, cy + half))
+    for point, text, places, options in labels:
+        best = None
+        for dx, dy, ha, va in places:
+            note = ax.annotate(text, point, xytext=(dx, dy), textcoords="offset points", ha=ha, va=va, bbox=_BOX,
+                               **options)
+            box = note.get_window_extent(renderer).expanded(1.02, 1.08)
+            covered = sum(box.overlaps(b) for b in taken) + (not inside(box))
+            if best is None or covered < best[0]:
+                if best is not None:
+                    best[1].remove()
+                best = (covered, note, box)
+            else:
+                note.remove()
+            if covered == 0:
+                break
+        taken.append(best[2])
+
+
+def _draw_field_rules(ax, instance: Instance, plan: Plan | FleetPlan) -> list[tuple[float, float, float]]:
     """MODEL.md section 9: blocked points as filled squares, each end point (a dock) marked,
-    and each budget with the moves the plan makes in the legend."""
+    and each budget with the moves the plan makes in the legend. The docks' markers (x, y,
+    size), which labels keep clear of."""
     from matplotlib.patches import Rectangle
 
     step = instance.step
@@ -158,16 +214,19 @@ def _draw_field_rules(ax, instance: Instance, plan: Plan | FleetPlan) -> None:
         ax.add_patch(Rectangle((x - step / 2, y - step / 2), step, step, color="0.35", zorder=0,
                                label="blocked" if k == 0 else None))
     fleet = len(plan.robots) > 1
+    docks = []
     for k, (robot, spec) in enumerate(zip(plan.robots, instance.robots, strict=False)):
         who = f"robot {k} " if fleet else ""
         colour = ROBOT_COLOURS[k % len(ROBOT_COLOURS)] if fleet else "tab:green"
         if spec.end is not None:
             ax.scatter(*spec.end, marker="D", s=110, facecolor="none", edgecolor=colour, lw=1.6, zorder=5,
                        label=f"{who}end (dock)")
+            docks.append((*spec.end, 110))
         if spec.max_moves is not None:
             moves = sum(a != b for a, b in zip(robot.positions, robot.positions[1:], strict=False))
             ax.plot([], [], " ", label=f"{who}moves {moves} of max_moves {spec.max_moves} "
                                        f"({spec.max_moves - moves} left)")
+    return docks
 
 
 def plot_result(result: Result, instance: Instance, path: str | os.PathLike, where: str = "the instance") -> None:
@@ -176,15 +235,15 @@ def plot_result(result: Result, instance: Instance, path: str | os.PathLike, whe
     ``where``): else the instance is not the one it was solved on, or the file was edited,
     and its status cannot be put in a title."""
     if result.plan is None:
-        raise OptionError(f"RESULT: the result has no plan (status {result.status})" + (
-            "; it is a policy's result: voiopt show draws a policy" if result.evaluation is not None else ""))
+        policy = "; a policy result: voiopt show draws a sampled run of its policy" if "policy_file" in result.solver else ""
+        raise OptionError(f"RESULT: the result has no plan (status {result.status}){policy}")
     metrics = expected_metrics(instance, result.plan)  # re-simulated (exact expectations if lossy): not trusted
     differ = disagreement(result.metrics, metrics) or disagreement({result.objective: result.value}, metrics)
     if differ:
         raise OptionError(f"RESULT: its plan on {where} does not give what the result says ({differ}): give the "
                           "instance it was solved on with --instance (or the file was edited)")
     fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
-    title = f"{instance.name} — {result.method}, {_expected(instance)}{result.objective} = {metrics[result.objective]:.4g} ({result.status})"
+    title = f"{instance.name} — {result.method}, {_expected(instance)}{result.objective} = {metrics[result.objective]:.4g} ({result.status}){_may_fail(instance)}"
     draw_plan(ax, instance, result.plan, title)
     save_figure(fig, path)
 
@@ -194,13 +253,18 @@ def _expected(instance: Instance) -> str:
     return "expected " if is_lossy(instance) else ""
 
 
+def _may_fail(instance: Instance) -> str:
+    """A title's second line on a lossy instance: the uploads drawn are the plan's, as scheduled."""
+    return "\nuploads as scheduled, each may fail; voiopt show draws a sampled run" if is_lossy(instance) else ""
+
+
 def plot_plan(instance: Instance, plan: Plan | FleetPlan, path: str | os.PathLike, label: str,
               objective: str = OBJECTIVE) -> None:
     """``voiopt plot`` of a plan file (no result around it): its trajectory, with its simulated
     ``objective`` in the title."""
     value = expected_metrics(instance, plan)[objective]
     fig, ax = start_figure(figsize=(5.2, 5.2 + 0.25 * len(instance.robots) * instance.has_field_rules))
-    draw_plan(ax, instance, plan, f"{instance.name} — {label}, {_expected(instance)}{objective} = {value:.4g}")
+    draw_plan(ax, instance, plan, f"{instance.name} — {label}, {_expected(instance)}{objective} = {value:.4g}{_may_fail(instance)}")
     save_figure(fig, path)
 
 

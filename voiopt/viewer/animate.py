@@ -13,7 +13,7 @@ from voiopt.errors import OptionError
 from voiopt.runtime.files import atomic_path
 from voiopt.runtime.progress import progress_bar
 from voiopt.viewer.frames import DPI, Painter, slots_of
-from voiopt.viewer.story import Entry, trajectory
+from voiopt.viewer.story import Entry, lossy_caption, trajectory
 
 MOVIE_FORMATS = (".gif", ".mp4")
 
@@ -33,8 +33,9 @@ def check_movie_path(path: str | os.PathLike) -> str:
 def animate(instance: Instance, entry: Entry, path: str | os.PathLike, where: str = "the instance",
             fps: float = 4.0, progress: bool = True) -> None:
     """Write the animation of one plan: T frames, frame t the slot t (positions p_k(0..t),
-    V_i(t) before slot t's upload takes effect). A Ctrl-C stops it and
-    leaves no file (the temporary file is removed)."""
+    V_i(t) before slot t's upload takes effect). On a lossy instance the frames are the run in
+    which every upload succeeds, and each frame says so (``lossy_caption``); a policy result has
+    no plan and is refused. A Ctrl-C stops it and leaves no file (the temporary file is removed)."""
     from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
 
     if not fps > 0:
@@ -42,7 +43,7 @@ def animate(instance: Instance, entry: Entry, path: str | os.PathLike, where: st
     fmt = check_movie_path(path)
     traj = trajectory(instance, entry, where)
     title = f"{entry.method or entry.label}"
-    painter = Painter(instance, title)
+    painter = Painter(instance, title, caption=lossy_caption(instance))
     slots = list(slots_of(traj, instance))
     with progress_bar(progress) as bar:
         task = bar.add_task(f"frames of {instance.name}", total=len(slots))

@@ -55,7 +55,9 @@ def voi_range(instance: Instance) -> tuple[float, float]:
 class Painter:
     """Draws Slots of one instance on one reused figure of SIZE_PX pixels (Agg)."""
 
-    def __init__(self, instance: Instance, title: str = "", log_range: tuple[float, float] | None = None):
+    def __init__(self, instance: Instance, title: str = "", log_range: tuple[float, float] | None = None,
+                 caption: str = ""):
+        """``caption``: a line under every frame (the animation of a lossy plan says what it draws)."""
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
@@ -67,6 +69,8 @@ class Painter:
         self.bar = self.figure.add_axes((0.82, 0.12, 0.03, 0.7))
         self._colourbar()
         self._layout()
+        if caption:
+            self.figure.text(0.5, 0.008, caption, ha="center", va="bottom", fontsize=6.5, color="#a15c00")
 
     def _colourbar(self) -> None:
         from matplotlib import colormaps

@@ -66,10 +66,16 @@
   document.getElementById("about").textContent =
     `${inst.width} \u00d7 ${inst.height} m, step ${inst.step} m, T = ${T} slots, ${N} sensor${N > 1 ? "s" : ""}, ` +
     `${K} robot${K > 1 ? "s" : ""}, d_th = ${inst.d_th} m` + (inst.blocked.length ? `, ${inst.blocked.length} blocked points` : "") +
-    (results.length > 1 ? ` \u2014 ${results.length} plans on one timeline` : "");
+    (results.length > 1 ? ` \u2014 ${results.length} ${results.some((r) => r.kind === "policy") ? "results" : "plans"} on one timeline` : "");
+  const sampled = results.find((r) => r.run);
   document.getElementById("note").textContent =
     "Slot t shows p_k(t), A_i(t) and V_i(t) before slot t's upload takes effect (MODEL.md sections 3, 4, 10). " +
-    "Every value is voiopt's simulation of the plan. Gaps: proven = a proven bound; statistical = a bound estimated from samples.";
+    (sampled ? `Lossy links: the map, the charts and the table show one sampled run (seed ${sampled.run.seed}; ` +
+      "every result on the page meets the same outcomes), simulated by voiopt; the value in each header is the " +
+      "expected objective, exact or a Monte Carlo estimate as labelled. "
+      : "Every value is voiopt's simulation of the plan. ") +
+    "Gaps: proven = an exact value and a proven bound; estimate = a Monte Carlo value's gap (with the range " +
+    "its CI implies); statistical = to a bound estimated from samples (information relaxation), never proven.";
 
   const cards = results.map((r, j) => buildCard(r, j));
   buildScale(document.getElementById("scale"));
@@ -79,6 +85,7 @@
     const h = html("h2", "", card);
     html("span", "", h, r.method ? r.method : "plan");
     if (r.status) html("span", "badge status", h, r.status);
+    if (r.kind === "policy") html("span", "badge status", h, "policy: adapts to outcomes");
     html("span", "file", h, r.label);
     const facts = html("p", "facts", card);
     const fact = (k, v) => { const s = html("span", "", facts); html("b", "", s, k + " "); s.append(v); return s; };
@@ -87,13 +94,13 @@
       fact(r.objective, fmt(r.value, 6) + (r.evaluation === "exact" ? " (exact expectation)" : " (Monte Carlo estimate" +
         (r.valueCi ? `, 95 % CI [${fmt(num(r.valueCi[0]), 6)}, ${fmt(num(r.valueCi[1]), 6)}]` : "") +
         (r.samples ? `, ${r.samples} samples` : "") + ")"));
-      if (r.run) fact("this run", fmt(sim, 6));
+      if (r.run) fact("this sampled run", fmt(sim, 6));
     } else {
       fact(r.objective, fmt(r.run ? r.value : sim, 6));
     }
     if (r.status) {
       fact("bound", r.bound === null ? "none" : fmt(r.bound, 6) + (r.boundKind ? ` (${r.boundKind})` : ""));
-      const g = fact("gap", r.gap === null ? "none" : r.gapText);
+      const g = fact("gap", r.gap === null ? "none" : r.gapText + (r.gapRange ? ` [${r.gapRange[0]}, ${r.gapRange[1]}]` : ""));
       if (r.gap !== null) { g.append(" "); html("span", "badge " + r.gapKind, g, r.gapKind); }
     }
     if (r.run) {
@@ -103,13 +110,14 @@
     const body = html("div", "body", card);
     const mapBox = html("div", "map", body);
     const map = buildMap(mapBox, r, j);
-    html("p", "legend", mapBox, "\u25a1 start \u00b7 \u25c7 end (dock) \u00b7 \u25cf red: upload \u00b7 dashed red: uploading now" +
+    html("p", "legend", mapBox, "\u25a1 start \u00b7 \u25c7 end (dock) \u00b7 \u25cf red: upload" + (r.run ? " that succeeded" : "") + " \u00b7 dashed red: uploading now" +
       (inst.blocked.length ? " \u00b7 \u25a0 blocked" : "") + (r.run ? " \u00b7 \u00d7 failed upload" : "") +
       " \u00b7 dashed circle: range d_th");
     const side = html("div", "side", body);
-    html("h3", "", side, "VoI V_i(t), bit/s, log scale \u00b7 black: least VoI");
+    const ofRun = r.run ? ` \u00b7 the sampled run (seed ${r.run.seed})` : "";
+    html("h3", "", side, "VoI V_i(t), bit/s, log scale \u00b7 black: least VoI" + ofRun);
     const voiChart = buildChart(side, r.voi, true, (t) => Math.min(...r.voi[t]));
-    html("h3", "", side, "AoI A_i(t), slots");
+    html("h3", "", side, "AoI A_i(t), slots" + ofRun);
     const aoiChart = buildChart(side, r.aoi, false, null);
     const now = html("p", "now", side);
     const box = html("div", "table", side);
@@ -158,6 +166,7 @@
     });
     const paths = el("g", { fill: "none", "stroke-linejoin": "round", "stroke-linecap": "round" }, svg);
     const marks = el("g", {}, svg);
+    const fails = el("g", {}, svg); // over the dots: a failure where an upload also succeeded stays seen
     const sensors = el("g", {}, svg);
     const robots = el("g", {}, svg);
     const sensorDots = inst.sensors.map((s, i) => {
@@ -170,7 +179,7 @@
     const shift = (k) => (K > 1 ? (k - (K - 1) / 2) * 0.08 * st : 0);
     return {
       draw(t) {
-        paths.replaceChildren(); marks.replaceChildren(); robots.replaceChildren();
+        paths.replaceChildren(); marks.replaceChildren(); fails.replaceChildren(); robots.replaceChildren();
         sensorDots.forEach((d, i) => {
           d.c.setAttribute("fill", voiColour(r.voi[t][i]));
           d.tip.textContent = `sensor ${i}: V = ${rate(r.voi[t][i])}, A = ${r.aoi[t][i]}`;
@@ -189,7 +198,9 @@
               el("line", { x1: cx, y1: cy, x2: X(sn.x), y2: Y(sn.y), stroke: "#d62728", "stroke-width": 2, "stroke-dasharray": "4 3" }, marks);
             }
             if (failed && failed[s]) {
-              el("path", { d: `M ${cx - 5} ${cy - 5} L ${cx + 5} ${cy + 5} M ${cx - 5} ${cy + 5} L ${cx + 5} ${cy - 5}`, stroke: "#d62728", "stroke-width": 2.2 }, marks)
+              const d = `M ${cx - 5} ${cy - 5} L ${cx + 5} ${cy + 5} M ${cx - 5} ${cy + 5} L ${cx + 5} ${cy - 5}`;
+              el("path", { d, stroke: "white", "stroke-width": 4.6, "stroke-linecap": "round" }, fails);
+              el("path", { d, stroke: "#d62728", "stroke-width": 2.2 }, fails)
                 .appendChild(el("title", {}, null, `slot ${s}: upload of sensor ${us[s]} failed`));
             } else {
               el("circle", { cx, cy, r: 4.2, fill: "#d62728", stroke: "white", "stroke-width": 1 }, marks)
@@ -276,11 +287,12 @@
     for (const c of cards) {
       c.map.draw(t); c.voiChart.draw(t); c.aoiChart.draw(t);
       const v = c.r.voi[t], least = Math.min(...v), who = v.indexOf(least);
-      const up = c.r.u.map((us, k) => (us[t] >= 0 ? `robot ${K > 1 ? k + " " : ""}uploads s${us[t]}` : null)).filter(Boolean);
+      const up = c.r.u.map((us, k) => (us[t] < 0 ? null : `robot ${K > 1 ? k + " " : ""}uploads s${us[t]}` +
+        (c.r.run && c.r.run.failed[k][t] ? " (fails in this sampled run)" : ` (takes effect in slot ${t + 1})`))).filter(Boolean);
       c.now.innerHTML = "";
       c.now.append("least VoI ");
       html("b", "", c.now, rate(least));
-      c.now.append(` (s${who}) \u00b7 ` + (up.length ? up.join(", ") + " (takes effect in slot " + (t + 1) + ")" : "no upload in this slot"));
+      c.now.append(` (s${who}) \u00b7 ` + (up.length ? up.join(", ") : "no upload in this slot"));
       c.rows.forEach(([tr, vc, ac], i) => {
         vc.textContent = rate(v[i]); ac.textContent = String(c.r.aoi[t][i]);
         tr.className = i === who ? "least" : "";

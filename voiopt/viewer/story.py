@@ -1,7 +1,8 @@
 """The story of a plan: what the viewer (``voiopt show``) and the animation show, slot by slot.
 
 Every number is the simulator's (``voiopt.core.simulate.simulate``) of the plan: a result's own
-metrics are checked against it, never drawn. One ``Entry`` per result or plan file; ``story``
+metrics are checked against it (under lossy links, against the plan's exact expectation, or the
+policy's instance and exact value: ``check_result``), never drawn. One ``Entry`` per result or plan file; ``story``
 turns entries on one instance into the compact JSON the page embeds.
 """
 
@@ -9,15 +10,17 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from voiopt.core.expectation import expected_metrics
 from voiopt.core.instance import Instance, show
+from voiopt.core.links import is_lossy
 from voiopt.core.plan import FleetPlan, Plan, made_for, plan_of
-from voiopt.core.result import BoundKind, Evaluation, Result, disagreement
+from voiopt.core.result import BoundKind, Evaluation, Result, agrees, disagreement
 from voiopt.core.simulate import Trajectory, check_plan, simulate
 from voiopt.errors import OptionError, PlanError, VoioptError
 from voiopt.objectives import DEFAULT, OBJECTIVES, show_gap
@@ -41,11 +44,27 @@ class Entry:
     samples: int | None = None
     value_ci: tuple[float, float] | None = None
     policy: Any = None  # a voiopt.Policy, shown by one sampled run
+    metrics: dict | None = None  # the result's stored metrics, checked as plot checks them
 
     @property
     def gap_kind(self) -> str:
-        """"statistical" for a bound estimated from samples, else "proven" (MODEL.md 6, 11)."""
-        return "proven" if self.bound_kind is None or self.bound_kind.proven else "statistical"
+        """How far a gap is to be trusted, in gap-report's words (MODEL.md 6, 11): "statistical"
+        to a bound estimated from samples (information relaxation); else "estimate" for a Monte
+        Carlo value (its gap to a proven bound is an estimate too); else "proven" (an exact value
+        and an exact or lossless bound, or a lossless result's)."""
+        if self.bound_kind is not None and not self.bound_kind.proven:
+            return "statistical"
+        return "estimate" if self.evaluation == Evaluation.MONTE_CARLO else "proven"
+
+    @property
+    def gap_range(self) -> tuple[float, float] | None:
+        """A Monte Carlo value's gap anywhere in its CI (lowest, highest; signed, as gap-report's), or None."""
+        if self.evaluation != Evaluation.MONTE_CARLO or self.value_ci is None or self.bound is None:
+            return None
+        from voiopt.experiments.lossy_gaps import gap_range
+
+        low, high = gap_range(self.objective, self.value_ci, self.bound)
+        return None if low is None else (low, high)
 
 
 def read_entry(path: str | os.PathLike) -> tuple[Entry, str | None]:
@@ -65,7 +84,7 @@ def read_entry(path: str | os.PathLike) -> tuple[Entry, str | None]:
         samples = d.get("samples") if isinstance(d.get("samples"), int) else None
         return Entry(Path(name).name, result.plan, result.objective, result.method, result.status, result.value,
                      result.bound, result.gap, result.bound_kind, result.evaluation, samples,
-                     None if ci is None else (float(ci[0]), float(ci[1])), policy), result.instance
+                     None if ci is None else (float(ci[0]), float(ci[1])), policy, result.metrics), result.instance
     plan = plan_of(d, name)  # a plan, or a plan with instance and objective (a VoI-Lib submission)
     objective = d.get("objective", DEFAULT) if isinstance(d, dict) else DEFAULT
     if objective not in OBJECTIVES:
@@ -105,18 +124,77 @@ def _realised(instance: Instance, idx, sched, ok, seed: int) -> tuple[Plan | Fle
 
 
 def trajectory(instance: Instance, entry: Entry, where: str = "the instance") -> Trajectory:
-    """The simulated trajectory of an entry; a result whose own value disagrees with it was
-    solved on another instance (or edited), and is refused."""
+    """The simulated trajectory of a plan entry, its result checked first (``check_result``)."""
+    if entry.plan is None:
+        raise OptionError(f"{entry.label}: a policy result has no plan to draw here: voiopt show draws a sampled "
+                          "run of its policy")
     try:
         traj = simulate(instance, entry.plan)
     except PlanError as e:
         raise PlanError(f"{entry.label}: {e}") from None
-    if entry.value is not None and entry.evaluation is None:  # a plan's value, not an estimate of a policy's
-        differ = disagreement({entry.objective: entry.value}, traj.metrics)
-        if differ:
-            raise OptionError(f"{entry.label}: its plan on {where} does not give what the result says ({differ}): "
-                              "give the instance it was solved on with --instance (or the file was edited)")
+    check_result(instance, entry, where, traj.metrics)
     return traj
+
+
+def lossy_caption(instance: Instance) -> str:
+    """What an animation of a plan on a lossy instance says under its frames: they are the run in
+    which every upload succeeds, not a sampled one ("" on an instance that is not lossy)."""
+    if not is_lossy(instance):
+        return ""
+    return "lossy links: drawn as if every upload succeeds; voiopt show draws a sampled run"
+
+
+REFUSED = "give the instance it was solved on with --instance (or the file was edited)"
+
+
+def check_result(instance: Instance, entry: Entry, where: str, simulated: dict[str, float] | None = None) -> None:
+    """Refuse (one line) a result that ``instance`` (found at ``where``) does not give, so that
+    no page or animation labels another instance's value as this one's:
+
+    - a plan: its stored value and metrics against the plan's own on the instance: simulated
+      without losses, the exact expectation (``expected_metrics``) on a lossy instance, as
+      ``voiopt plot`` checks them. A plan result whose value says it is a Monte Carlo
+      estimate (no voiopt method writes one) has nothing exact to meet and is not checked;
+    - a policy: the instance its policy file was made for (links included) must be this one;
+      where the result's value is exact, the policy's exact value (``policy_value.exact_value``)
+      is computed again and must be it. A Monte Carlo value is not sampled again.
+    """
+    if entry.value is None:
+        return
+    if entry.policy is not None:
+        _check_policy(instance, entry, where)
+        return
+    if entry.evaluation == Evaluation.MONTE_CARLO:
+        return
+    metrics = expected_metrics(instance, entry.plan) if is_lossy(instance) else simulated
+    if metrics is None:
+        metrics = expected_metrics(instance, entry.plan)
+    differ = disagreement(entry.metrics, metrics) or disagreement({entry.objective: entry.value}, metrics)
+    if differ:
+        what = "exact expectation" if is_lossy(instance) else "simulated"
+        raise OptionError(f"{entry.label}: its plan on {where} does not give what the result says "
+                          f"({differ.replace(' simulated', ' ' + what)}): {REFUSED}")
+
+
+def _check_policy(instance: Instance, entry: Entry, where: str) -> None:
+    mine, theirs = entry.policy.instance.to_dict(), instance.to_dict()
+    if mine.get("links") != theirs.get("links"):
+        raise OptionError(f"{entry.label}: its policy was made for links {show(mine.get('links'))}, {where} has "
+                          f"{show(theirs.get('links'))}: {REFUSED}")
+    if mine != theirs:
+        field = next(k for k in sorted(set(mine) | set(theirs)) if mine.get(k) != theirs.get(k))
+        raise OptionError(f"{entry.label}: its policy was made for another instance than {where} "
+                          f"({field} differs): {REFUSED}")
+    if entry.evaluation != Evaluation.EXACT:
+        return
+    from voiopt.core.policy_value import AVERAGED, MAX_STATES, exact_value
+
+    if entry.objective not in AVERAGED:
+        return
+    value = exact_value(entry.policy, entry.objective, MAX_STATES)
+    if value is not None and not agrees(entry.value, value):
+        raise OptionError(f"{entry.label}: its policy on {where} does not give what the result says "
+                          f"({entry.objective} {show(entry.value)} stored, {value!r} exact): {REFUSED}")
 
 
 def _number(v: Any) -> float | str | None:
@@ -152,11 +230,14 @@ def story(instance: Instance, entries: list[Entry], where: str = "the instance",
     and per entry its header and its simulated story: p_k(t) for t = 0..T-1, u_k(t) (-1: none),
     A_i(t) and V_i(t) for t = 0..T (row t: before slot t's upload takes effect). Under lossy
     links (``sampled_run``) the ages and values are those of one sampled run, seeded by ``seed``,
-    and ``simulated`` holds that run's metrics, not the plan's expected ones."""
+    and ``simulated`` holds that run's metrics, not the plan's expected ones; a plan file's
+    ``value`` is then its exact expectation (``expected_metrics``). ``check_result`` refuses a
+    result the instance does not give."""
     T = instance.horizon
     out = []
     for e in entries:
         if e.policy is not None:  # a policy: one sampled run, its scheduled uploads drawn, failures marked
+            check_result(instance, e, where)
             shown, realised, run = policy_run(instance, e.policy, seed)
             robots, traj, sampled = shown.robots, simulate(instance, realised), (realised, run)
         else:
@@ -165,10 +246,14 @@ def story(instance: Instance, entries: list[Entry], where: str = "the instance",
             sampled = sampled_run(instance, e.plan, seed)
             if sampled is not None:  # the run's ages and values: the plan with its failed uploads unscheduled
                 traj = simulate(instance, sampled[0])
+                if e.value is None:  # a plan file: its exact expected objective, which no run shows
+                    e = replace(e, value=expected_metrics(instance, e.plan)[e.objective], evaluation=Evaluation.EXACT)
         out.append({
-            "label": e.label, "method": e.method, "objective": e.objective, "status": e.status,
+            "label": e.label, "kind": "plan" if e.policy is None else "policy", "method": e.method, "objective": e.objective, "status": e.status,
             "value": _number(e.value), "bound": _number(e.bound), "gap": _number(e.gap),
-            "gapText": show_gap(e.gap), "gapKind": e.gap_kind, "boundKind": e.bound_kind, "evaluation": e.evaluation,
+            "gapText": show_gap(e.gap), "gapKind": e.gap_kind,
+            "gapRange": None if e.gap_range is None else [show_gap(g) for g in e.gap_range],
+            "boundKind": e.bound_kind, "evaluation": e.evaluation,
             "samples": e.samples, "valueCi": None if e.value_ci is None else [_number(v) for v in e.value_ci],
             "simulated": {k: _number(v) for k, v in traj.metrics.items()},
             "x": [[_number(x) for x, _ in r.positions] for r in robots],
