@@ -184,7 +184,7 @@ def plan_of(d: Any, path: str | os.PathLike, instance_name: str | None = None) -
         raise PlanError(f"{path}: a policy, not a plan: a policy acts on what it observes (voiopt show draws it; "
                         "voiopt.Policy.load acts on it; voiopt solve reports its value)")
     if isinstance(d, dict) and "objective" in d and d.get("plan") is None and d.get("evaluation") is not None:
-        saved = (d.get("solver") or {}).get("policy_file") if isinstance(d.get("solver"), dict) else None
+        saved = d["solver"].get("policy_file") if isinstance(d.get("solver"), dict) else None
         raise PlanError(f"{path}: a policy's result, which holds no plan" + (f" (its policy is {saved})" if saved else "")
                         + ": voiopt show draws it; its value is the result's own")
     if isinstance(d, dict) and "objective" in d and "plan" not in d and "positions" not in d and "robots" not in d:

@@ -110,9 +110,7 @@ def write_set(instances: list[Instance], out_dir: str | os.PathLike, *, overwrit
     paths = [out / f"{files.safe_name(inst.name)}.json" for inst in instances]
     if not overwrite:
         for inst, p in zip(instances, paths, strict=True):
-            if p.exists() and not _holds(p, inst):
-                raise OptionError(f"--out: {p} already holds another instance; choose another --out, or --overwrite "
-                                  "to replace it")
+            _refuse_another(p, inst)
     for inst, p in zip(instances, paths, strict=True):
         instance_mod.save(inst, p)
     return paths
@@ -123,11 +121,17 @@ def write_one(instance: Instance, path: str | os.PathLike, *, overwrite: bool = 
     nothing) if the file holds another instance."""
     p = Path(path)
     files.check_output_file(p, "--out")
-    if not overwrite and p.exists() and not _holds(p, instance):
-        raise OptionError(f"--out: {p} already holds another instance; choose another --out, or --overwrite to "
-                          "replace it")
+    if not overwrite:
+        _refuse_another(p, instance)
     instance_mod.save(instance, p)
     return p
+
+
+def _refuse_another(path: Path, inst: Instance) -> None:
+    """OptionError if the file exists and holds another instance (write_set's and write_one's refusal)."""
+    if path.exists() and not _holds(path, inst):
+        raise OptionError(f"--out: {path} already holds another instance; choose another --out, or --overwrite to "
+                          "replace it")
 
 
 def _holds(path: Path, inst: Instance) -> bool:

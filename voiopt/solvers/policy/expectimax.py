@@ -33,14 +33,20 @@ CHECK_EVERY = 4096  # new states between two looks at the stop rule
 STATE_BYTES = 360  # a memoised state: two dict entries, key tuples, value pair and worth, about (N = 3)
 
 
+def averaged_steps(instance: Instance, objective: str, succ: np.ndarray | None) -> Steps:
+    """The slots' rules for an averaged objective (ValueError for another): what both searches
+    (this one and ``layered.py``'s) start from."""
+    if objective not in AVERAGED:
+        raise ValueError(f"objective {objective!r}: the expectimax takes only {', '.join(AVERAGED)}")
+    return Steps(instance, objectives.get(objective).voi, succ)
+
+
 class Expectimax:
     """The optimal values and actions of every state reachable from the start."""
 
     def __init__(self, instance: Instance, objective: str, succ: np.ndarray | None = None,
                  stop: Stop | None = None, tick=None) -> None:
-        if objective not in AVERAGED:
-            raise ValueError(f"objective {objective!r}: the expectimax takes only {', '.join(AVERAGED)}")
-        self.steps = Steps(instance, objectives.get(objective).voi, succ)
+        self.steps = averaged_steps(instance, objective, succ)
         self.objective, self.stop, self.tick = objective, stop, tick  # tick(states): progress, now and then
         self.T = instance.horizon
         self.memo: list[dict] = [{} for _ in range(self.T + 1)]

@@ -22,14 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from voiopt import objectives
 from voiopt.core.instance import Instance
 from voiopt.core.policy_value import AVERAGED
-from voiopt.core.steps import Steps
 from voiopt.runtime.stop import Stop, halt_if_asked
 from voiopt.solvers.base import warm_up_once
 from voiopt.solvers.policy import kernels
-from voiopt.solvers.policy.expectimax import Expectimax
+from voiopt.solvers.policy.expectimax import Expectimax, averaged_steps
 from voiopt.solvers.policy.packed import Packing
 
 CHUNK_CHILDREN = 1 << 22  # next states written by one call of ``expand`` (sorted in about 0.05 s)
@@ -41,9 +39,7 @@ class Layered:
 
     def __init__(self, instance: Instance, objective: str, succ: np.ndarray | None = None,
                  stop: Stop | None = None, tick=None) -> None:
-        if objective not in AVERAGED:
-            raise ValueError(f"objective {objective!r}: the expectimax takes only {', '.join(AVERAGED)}")
-        self.steps = Steps(instance, objectives.get(objective).voi, succ)
+        self.steps = averaged_steps(instance, objective, succ)
         self.packing = Packing(self.steps)
         self.stop, self.tick = stop, tick  # tick(states): progress, now and then
         self.T = instance.horizon
